@@ -1,0 +1,132 @@
+//! The `vlf-bake` command-line tool as a library: `main.rs` only parses arguments and calls
+//! [`run`]. Progress output belongs here (binary side), never in `vlf-core`/`vlf-gpu`.
+
+pub mod cli;
+
+use anyhow::Context as _;
+use cli::{Cli, Command, DeviceArg};
+use std::path::Path;
+
+/// Exit codes, documented in `--help`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum ExitCode {
+    Internal = 1,
+    BadInput = 3,
+    NoDevice = 4,
+}
+
+impl From<ExitCode> for std::process::ExitCode {
+    fn from(c: ExitCode) -> Self {
+        std::process::ExitCode::from(c as u8)
+    }
+}
+
+/// Maps an error chain to the exit code of its root kind.
+pub fn exit_code(err: &anyhow::Error) -> ExitCode {
+    for cause in err.chain() {
+        if cause.is::<vlf_core::scene::SceneError>() {
+            return ExitCode::BadInput;
+        }
+        if cause.is::<vlf_gpu::DeviceError>() {
+            return ExitCode::NoDevice;
+        }
+    }
+    ExitCode::Internal
+}
+
+pub fn init_logging(verbose: u8, quiet: bool) {
+    let level = match (quiet, verbose) {
+        (true, _) => "error",
+        (false, 0) => "warn",
+        (false, 1) => "info",
+        (false, 2) => "debug",
+        _ => "trace",
+    };
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(level))
+        .format_timestamp(None)
+        .init();
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Inspect { scene, json } => inspect(&scene, json),
+        Command::Selftest { json } => selftest(cli.device, json),
+    }
+}
+
+fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
+    let scene = vlf_core::scene::load(path)?;
+    let summary = scene.summary();
+    if json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+        return Ok(());
+    }
+    println!("scene {}", path.display());
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    for w in &scene.warnings {
+        println!("warning: {w}");
+    }
+    Ok(())
+}
+
+/// Result of opening the compute device as `--device` asks.
+pub enum Compute {
+    Gpu(Box<vlf_gpu::GpuContext>),
+    /// The CPU reference path, with the reason it was chosen.
+    Cpu(String),
+}
+
+/// Opens the compute device: `gpu` must get an adapter, `auto` falls back to the CPU reference
+/// with a warning, `cpu` never touches the GPU.
+pub fn open_device(arg: DeviceArg) -> anyhow::Result<Compute> {
+    match arg {
+        DeviceArg::Cpu => Ok(Compute::Cpu("--device cpu".into())),
+        DeviceArg::Gpu => Ok(Compute::Gpu(Box::new(
+            vlf_gpu::GpuContext::new(&Default::default()).context("--device gpu")?,
+        ))),
+        DeviceArg::Auto => match vlf_gpu::GpuContext::new(&Default::default()) {
+            Ok(ctx) => Ok(Compute::Gpu(Box::new(ctx))),
+            Err(e) => {
+                log::warn!(
+                    "no usable GPU ({e}); using the CPU reference path, which is much slower"
+                );
+                Ok(Compute::Cpu(e.to_string()))
+            }
+        },
+    }
+}
+
+fn selftest(device: DeviceArg, json: bool) -> anyhow::Result<()> {
+    let compute = open_device(device)?;
+    let Compute::Gpu(ctx) = compute else {
+        anyhow::bail!("selftest needs a GPU adapter; none was used (--device {device:?})");
+    };
+    let pass = vlf_gpu::passes::smoke::SmokePass::new(&ctx.device);
+    let xs: Vec<f32> = (0..65_536).map(|i| i as f32 * 0.25).collect();
+    let t = std::time::Instant::now();
+    let ys = pass
+        .run(&ctx.device, &ctx.queue, 2.0, 1.0, &xs)
+        .context("reading back the self-test buffer")?;
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let bad = xs
+        .iter()
+        .zip(&ys)
+        .filter(|(x, y)| y[0] != 2.0 * **x + 1.0)
+        .count();
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "adapter": ctx.summary.name, "backend": ctx.summary.backend,
+                "device_type": ctx.summary.device_type, "driver": ctx.summary.driver,
+                "selftest_elements": xs.len(), "selftest_mismatches": bad, "selftest_ms": ms,
+            })
+        );
+    } else {
+        println!("adapter: {}", ctx.summary);
+        println!("compute self-test: {} elements, {bad} mismatches, {ms:.1} ms", xs.len());
+    }
+    anyhow::ensure!(bad == 0, "compute self-test failed: {bad} wrong elements");
+    Ok(())
+}

@@ -1,0 +1,286 @@
+//! Adapter and device creation.
+//!
+//! We request features and limits explicitly so that device creation fails loudly, naming what is
+//! missing, instead of failing later inside a pass. In particular wgpu silently falls back to its
+//! GL backend when no Vulkan driver is installed; GL lacks float32 filtering and float render
+//! targets, so the feature request below rejects it with a clear message.
+
+use std::fmt;
+
+/// Features every vlf GPU path needs.
+///
+/// `FLOAT32_FILTERABLE`: the viewer filters the radiance atlas (f32) bilinearly.
+pub const REQUIRED_FEATURES: wgpu::Features = wgpu::Features::FLOAT32_FILTERABLE;
+
+/// Features used when present, never needed for correctness.
+pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY;
+
+/// The minimum limits vlf needs; anything the adapter offers beyond this (buffer sizes in
+/// particular) is requested too so large bakes can use the whole device.
+pub fn minimum_limits() -> wgpu::Limits {
+    wgpu::Limits {
+        max_storage_buffers_per_shader_stage: 8,
+        max_storage_buffer_binding_size: 128 << 20,
+        max_buffer_size: 256 << 20,
+        max_compute_workgroup_size_x: 256,
+        max_compute_invocations_per_workgroup: 256,
+        max_texture_dimension_2d: 8192,
+        ..wgpu::Limits::default()
+    }
+}
+
+/// Which adapters may be used.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AdapterChoice {
+    /// Any adapter wgpu offers, software (lavapipe) included.
+    #[default]
+    Any,
+    /// Only a hardware GPU (integrated, discrete or virtual); software rasterisers are refused.
+    HardwareOnly,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct DeviceOptions {
+    pub adapter: AdapterChoice,
+    /// Optional label for logs.
+    pub label: Option<String>,
+}
+
+/// A short, serialisable description of the adapter in use (for logs, `--json` and benchmarks).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver: String,
+}
+
+impl fmt::Display for AdapterSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({}, {}", self.name, self.backend, self.device_type)?;
+        if !self.driver.is_empty() {
+            write!(f, ", {}", self.driver)?;
+        }
+        write!(f, ")")
+    }
+}
+
+impl AdapterSummary {
+    fn new(info: &wgpu::AdapterInfo) -> Self {
+        let driver = [info.driver.as_str(), info.driver_info.as_str()]
+            .iter()
+            .filter(|s| !s.is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+        Self {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver,
+        }
+    }
+
+    /// True for CPU rasterisers such as lavapipe/llvmpipe.
+    pub fn is_software(&self) -> bool {
+        self.device_type == "Cpu"
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(
+        "no GPU adapter found (tried backends: {backends}); install a Vulkan driver, e.g. Mesa's software driver: apt-get install -y mesa-vulkan-drivers libvulkan1"
+    )]
+    NoAdapter { backends: String },
+    #[error("only a software adapter is available ({adapter}) but a hardware GPU was required")]
+    SoftwareOnly { adapter: AdapterSummary },
+    #[error("adapter {adapter} lacks required features: {missing:?}")]
+    MissingFeatures {
+        adapter: AdapterSummary,
+        missing: wgpu::Features,
+    },
+    #[error("adapter {adapter} has insufficient limits: {}", .missing.join(", "))]
+    InsufficientLimits {
+        adapter: AdapterSummary,
+        missing: Vec<String>,
+    },
+    #[error("device request failed on adapter {adapter}: {source}")]
+    RequestDevice {
+        adapter: AdapterSummary,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+impl fmt::Display for AdapterChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            AdapterChoice::Any => "any",
+            AdapterChoice::HardwareOnly => "hardware-only",
+        })
+    }
+}
+
+/// Everything a pass needs to talk to the GPU.
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub summary: AdapterSummary,
+    /// Optional features that were available and enabled.
+    pub features: wgpu::Features,
+}
+
+impl GpuContext {
+    /// Creates an instance, picks an adapter and requests a device with [`REQUIRED_FEATURES`]
+    /// and at least [`minimum_limits`]. Backends: Vulkan/Metal/DX12 by default (GL lacks the
+    /// float formats we need); `WGPU_BACKEND` overrides.
+    pub fn new(opts: &DeviceOptions) -> Result<Self, DeviceError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::PRIMARY;
+        let desc = desc.with_env();
+        let backends = desc.backends;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(select_adapter(&instance, backends, opts.adapter))?;
+        Self::from_adapter(instance, adapter)
+    }
+
+    /// Requests the device on an adapter chosen by the caller (the viewer picks one compatible
+    /// with its window surface).
+    pub fn from_adapter(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+    ) -> Result<Self, DeviceError> {
+        let summary = AdapterSummary::new(&adapter.get_info());
+        let available = adapter.features();
+        let missing = REQUIRED_FEATURES - available;
+        if !missing.is_empty() {
+            return Err(DeviceError::MissingFeatures {
+                adapter: summary,
+                missing,
+            });
+        }
+        let limits = negotiate_limits(&adapter.limits()).map_err(|missing| {
+            DeviceError::InsufficientLimits {
+                adapter: summary.clone(),
+                missing,
+            }
+        })?;
+        let features = REQUIRED_FEATURES | (OPTIONAL_FEATURES & available);
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("vlf::device"),
+            required_features: features,
+            required_limits: limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|source| DeviceError::RequestDevice {
+            adapter: summary.clone(),
+            source,
+        })?;
+        log::info!("GPU adapter: {summary}");
+        Ok(Self {
+            instance,
+            adapter,
+            device,
+            queue,
+            summary,
+            features,
+        })
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait_idle(&self) {
+        // An error here means the device was lost; later calls report it properly.
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
+    }
+}
+
+/// Picks the best adapter: hardware before software, Vulkan/Metal/DX12 before GL.
+async fn select_adapter(
+    instance: &wgpu::Instance,
+    backends: wgpu::Backends,
+    choice: AdapterChoice,
+) -> Result<wgpu::Adapter, DeviceError> {
+    let mut adapters = instance.enumerate_adapters(backends).await;
+    adapters.sort_by_key(|a| adapter_rank(&a.get_info()));
+    for a in &adapters {
+        log::debug!("adapter candidate: {}", AdapterSummary::new(&a.get_info()));
+    }
+    let Some(best) = adapters.into_iter().next() else {
+        return Err(DeviceError::NoAdapter {
+            backends: format!("{backends:?}"),
+        });
+    };
+    let summary = AdapterSummary::new(&best.get_info());
+    if choice == AdapterChoice::HardwareOnly && summary.is_software() {
+        return Err(DeviceError::SoftwareOnly { adapter: summary });
+    }
+    Ok(best)
+}
+
+fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let ty = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    (backend, ty)
+}
+
+/// Starts from [`minimum_limits`], raises the size limits to what the adapter offers, and lists
+/// every limit the adapter cannot meet.
+pub fn negotiate_limits(adapter: &wgpu::Limits) -> Result<wgpu::Limits, Vec<String>> {
+    let min = minimum_limits();
+    let mut missing = Vec::new();
+    let mut check = |name: &str, have: u64, need: u64| {
+        if have < need {
+            missing.push(format!("{name} = {have} (need {need})"));
+        }
+    };
+    check(
+        "max_storage_buffers_per_shader_stage",
+        adapter.max_storage_buffers_per_shader_stage.into(),
+        min.max_storage_buffers_per_shader_stage.into(),
+    );
+    check(
+        "max_storage_buffer_binding_size",
+        adapter.max_storage_buffer_binding_size,
+        min.max_storage_buffer_binding_size,
+    );
+    check("max_buffer_size", adapter.max_buffer_size, min.max_buffer_size);
+    check(
+        "max_compute_workgroup_size_x",
+        adapter.max_compute_workgroup_size_x.into(),
+        min.max_compute_workgroup_size_x.into(),
+    );
+    check(
+        "max_compute_invocations_per_workgroup",
+        adapter.max_compute_invocations_per_workgroup.into(),
+        min.max_compute_invocations_per_workgroup.into(),
+    );
+    check(
+        "max_texture_dimension_2d",
+        adapter.max_texture_dimension_2d.into(),
+        min.max_texture_dimension_2d.into(),
+    );
+    if !missing.is_empty() {
+        return Err(missing);
+    }
+    Ok(wgpu::Limits {
+        max_storage_buffer_binding_size: adapter.max_storage_buffer_binding_size,
+        max_buffer_size: adapter.max_buffer_size,
+        max_texture_dimension_2d: adapter.max_texture_dimension_2d,
+        max_compute_workgroups_per_dimension: adapter.max_compute_workgroups_per_dimension,
+        ..min
+    })
+}

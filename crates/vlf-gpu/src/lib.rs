@@ -1,0 +1,16 @@
+//! GPU side of vlf, shared by the baker and the viewer.
+//!
+//! * [`device`]: adapter/device creation with explicit features and limits, working on real GPUs
+//!   and on Mesa's lavapipe; errors name exactly what the adapter lacks.
+//! * [`shaders`]: the registry of every WGSL file under `shaders/`, embedded at compile time.
+//! * [`layout`]: the one source of truth for structs shared between Rust and WGSL.
+//! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
+//! * [`readback`]: small helpers to copy buffers back to the CPU (tests, stills, bakes).
+
+pub mod device;
+pub mod layout;
+pub mod passes;
+pub mod readback;
+pub mod shaders;
+
+pub use device::{DeviceError, DeviceOptions, GpuContext};
