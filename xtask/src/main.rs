@@ -1,1 +1,55 @@
-fn main(){}
+//! Project chores, run as `cargo xtask <task>`.
+//!
+
+mod assets;
+mod ci;
+mod validate;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, bail};
+
+const USAGE: &str = "usage: cargo xtask <task>
+
+tasks:
+  ci            the whole test suite: rustfmt, clippy, all tests, asset checks (what .ci/run runs)
+  demo          the main job on the bundled Cornell box
+  assets        regenerate the Cornell box scenes under assets/
+  check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
+  validate-gltf FILE...  run Khronos glTF-Validator on the given files";
+
+fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives one level below the repository root")
+        .to_path_buf()
+}
+
+fn main() -> Result<()> {
+    let root = repo_root();
+    let task = std::env::args().nth(1);
+    match task.as_deref() {
+        Some("assets") => {
+            for path in assets::generate(&root.join("assets"))? {
+                println!("wrote {}", path.display());
+            }
+        }
+        Some("check-assets") => {
+            assets::check(&root)?;
+            println!("assets/ is up to date");
+            validate::validate_gltf(&root, &assets::asset_files(&root.join("assets")))?;
+        }
+        Some("validate-gltf") => {
+            let files: Vec<PathBuf> = std::env::args_os().skip(2).map(PathBuf::from).collect();
+            if files.is_empty() {
+                bail!("{USAGE}");
+            }
+            validate::validate_gltf(&root, &files)?;
+        }
+        Some("ci") => ci::ci(&root)?,
+        Some("demo") => ci::demo(&root)?,
+        Some("-h" | "--help" | "help") => println!("{USAGE}"),
+        _ => bail!("{USAGE}"),
+    }
+    Ok(())
+}
