@@ -1,1 +1,5 @@
-pub mod directions; pub mod scene;
+pub mod bake;
+pub mod directions;
+pub mod lightfield;
+pub mod psf;
+pub mod scene;
