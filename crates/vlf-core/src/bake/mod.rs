@@ -1,0 +1,124 @@
+//! Baking: parameters, the prepared (VLF-space, GPU-ready) scene, the diffuse atlas, and the
+//! CPU reference propagator. The GPU propagator in `vlf-gpu` consumes exactly the same prepared
+//! arrays ([`prep::BakeScene`]) and must agree with [`reference`].
+//!
+//! See `docs/PROPAGATION.md` for the algorithm and why it departs from the paper's painter's
+//! sort (exact per-ray depth lists) and float-atomic scatter (per-texel gather).
+
+pub mod params;
+pub mod prep;
+pub mod reference;
+
+pub use params::{BakeParams, Iterations, ParamsError, Quality};
+pub use prep::{BakeFace, BakeScene, BakeTriangle};
+
+use crate::directions::DirectionSet;
+use crate::lightfield::{BakeStats, LightField};
+use crate::scene::Scene;
+use std::time::Instant;
+
+/// Errors of a bake.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    #[error("invalid bake parameters: {0}")]
+    Params(#[from] ParamsError),
+    #[error("invalid direction count: {0}")]
+    Directions(#[from] crate::directions::DirectionError),
+}
+
+/// Assembles a [`LightField`] from a scene, its prepared form and the propagated radiance
+/// (shared by the CPU and GPU paths). Uncovered texels are dilated so bilinear filtering at
+/// polygon borders reads covered neighbours instead of black.
+pub fn assemble(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    directions: DirectionSet,
+    mut radiance: Vec<[f32; 4]>,
+    stats: BakeStats,
+) -> LightField {
+    dilate(prep, &mut radiance);
+    LightField {
+        params: params.clone(),
+        directions,
+        to_vlf: scene.to_vlf,
+        scene: scene.summary(),
+        cameras: scene.cameras.clone(),
+        triangles: prep.triangles.clone(),
+        faces: prep.faces.clone(),
+        radiance,
+        stats,
+    }
+}
+
+/// Bakes on the CPU with the reference propagator.
+pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeError> {
+    let t0 = Instant::now();
+    let prep = BakeScene::new(scene, params)?;
+    let directions = DirectionSet::at_least(params.directions)?;
+    let t_prep = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let out = reference::propagate(&prep, &directions, params);
+    let mut stats = BakeStats {
+        iterations: out.iterations,
+        device: "cpu".into(),
+        adapter: "CPU reference".into(),
+        phases: vec![
+            ("prepare".into(), t_prep),
+            ("propagate".into(), t1.elapsed().as_secs_f64()),
+        ],
+        ..Default::default()
+    };
+    stats.set_energy(&out.energy);
+    Ok(assemble(
+        scene,
+        &prep,
+        params,
+        directions,
+        out.radiance,
+        stats,
+    ))
+}
+
+/// Fills every uncovered texel (area 0) of each chart side with the mean of its covered
+/// 8-neighbours, repeated outward (two rings are enough for bilinear filtering).
+pub fn dilate(prep: &BakeScene, radiance: &mut [[f32; 4]]) {
+    for f in &prep.faces {
+        let (w, h) = (f.width as usize, f.height as usize);
+        for side in 0..2 {
+            let base = f.texel_base as usize + side * w * h;
+            let mut filled: Vec<bool> = (0..w * h)
+                .map(|i| prep.texel_area[base + i] > 0.0)
+                .collect();
+            for _ring in 0..2 {
+                let snapshot = filled.clone();
+                for y in 0..h {
+                    for x in 0..w {
+                        if snapshot[y * w + x] {
+                            continue;
+                        }
+                        let mut sum = glam::Vec4::ZERO;
+                        let mut n = 0;
+                        for dy in -1i64..=1 {
+                            for dx in -1i64..=1 {
+                                let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                                if xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
+                                    continue;
+                                }
+                                let j = yy as usize * w + xx as usize;
+                                if snapshot[j] {
+                                    sum += glam::Vec4::from(radiance[base + j]);
+                                    n += 1;
+                                }
+                            }
+                        }
+                        if n > 0 {
+                            radiance[base + y * w + x] = (sum / n as f32).into();
+                            filled[y * w + x] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

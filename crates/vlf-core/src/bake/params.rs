@@ -1,0 +1,167 @@
+//! Bake parameters and quality presets.
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// When to stop iterating (one iteration = one bounce of light).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Iterations {
+    /// Exactly this many propagation iterations (the paper uses 3).
+    Fixed(u32),
+    /// Until the unshot power falls below `threshold` × the emitted power, at most `max`.
+    Converge { threshold: f32, max: u32 },
+}
+
+/// Parameter presets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Quality {
+    /// Fast preview.
+    Draft,
+    /// The default.
+    Auto,
+    /// Slow, for references and final bakes.
+    High,
+}
+
+/// Everything that controls a bake. Stored in the output file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BakeParams {
+    /// Requested number of directions l (the set uses the smallest geodesic set with ≥ l).
+    pub directions: u32,
+    /// Rays per PSF side (N).
+    pub resolution: u32,
+    /// Cells per tile side (m); `resolution % tile == 0`.
+    pub tile: u32,
+    /// Texel edge length relative to the ray spacing (1 = one texel per ray cell).
+    pub texel_scale: f32,
+    /// Stopping rule.
+    pub iterations: Iterations,
+    /// Constant sky radiance entering every ray from outside the scene.
+    pub sky: Vec3,
+    /// Perturbed (virtual) directions per fixed direction used for transport (0 = none).
+    pub perturb: u32,
+    /// Seed of every pseudo-random choice (perturbations); bakes are deterministic.
+    pub seed: u64,
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ParamsError {
+    #[error("--resolution {resolution} is not a multiple of --tile {tile}")]
+    TileMismatch { resolution: u32, tile: u32 },
+    #[error("{name} = {value} is out of range ({range})")]
+    OutOfRange {
+        name: &'static str,
+        value: String,
+        range: &'static str,
+    },
+}
+
+impl Quality {
+    /// The preset's parameters (before any scene-driven adjustment).
+    pub fn params(self) -> BakeParams {
+        let (directions, resolution, tile, max) = match self {
+            Quality::Draft => (126, 64, 8, 8),
+            Quality::Auto => (512, 128, 8, 64),
+            Quality::High => (2048, 256, 16, 128),
+        };
+        BakeParams {
+            directions,
+            resolution,
+            tile,
+            texel_scale: 1.0,
+            iterations: Iterations::Converge {
+                threshold: 1e-3,
+                max,
+            },
+            sky: Vec3::ZERO,
+            perturb: 0,
+            seed: DEFAULT_SEED,
+        }
+    }
+}
+
+/// Default seed for perturbed directions.
+pub const DEFAULT_SEED: u64 = 0x5eed_0001;
+
+impl BakeParams {
+    /// The paper's Cornell-box settings: 512 directions, 64×64 rays, 8×8 tiles, 3 iterations.
+    pub fn paper() -> Self {
+        BakeParams {
+            directions: 512,
+            resolution: 64,
+            tile: 8,
+            iterations: Iterations::Fixed(3),
+            ..Quality::Auto.params()
+        }
+    }
+
+    /// Checks ranges and consistency.
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        let range = |name, ok: bool, value: String, range| {
+            if ok {
+                Ok(())
+            } else {
+                Err(ParamsError::OutOfRange { name, value, range })
+            }
+        };
+        range(
+            "directions",
+            (1..=20_481).contains(&self.directions),
+            self.directions.to_string(),
+            "1..=20481",
+        )?;
+        range(
+            "resolution",
+            (1..=4096).contains(&self.resolution),
+            self.resolution.to_string(),
+            "1..=4096",
+        )?;
+        range(
+            "tile",
+            (1..=self.resolution.max(1)).contains(&self.tile),
+            self.tile.to_string(),
+            "1..=resolution",
+        )?;
+        if !self.resolution.is_multiple_of(self.tile) {
+            return Err(ParamsError::TileMismatch {
+                resolution: self.resolution,
+                tile: self.tile,
+            });
+        }
+        range(
+            "texel_scale",
+            self.texel_scale.is_finite() && (0.05..=64.0).contains(&self.texel_scale),
+            self.texel_scale.to_string(),
+            "0.05..=64",
+        )?;
+        range(
+            "sky",
+            self.sky.is_finite() && self.sky.min_element() >= 0.0,
+            format!("{:?}", self.sky),
+            "finite, >= 0",
+        )?;
+        range(
+            "perturb",
+            self.perturb <= 256,
+            self.perturb.to_string(),
+            "0..=256",
+        )?;
+        match self.iterations {
+            Iterations::Fixed(n) => range("iterations", n <= 10_000, n.to_string(), "0..=10000"),
+            Iterations::Converge { threshold, max } => {
+                range(
+                    "threshold",
+                    threshold.is_finite() && threshold > 0.0 && threshold < 1.0,
+                    threshold.to_string(),
+                    "(0, 1)",
+                )?;
+                range(
+                    "max iterations",
+                    max <= 10_000,
+                    max.to_string(),
+                    "0..=10000",
+                )
+            }
+        }
+    }
+}

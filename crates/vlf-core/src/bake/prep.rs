@@ -1,0 +1,414 @@
+//! The scene as the propagators see it: VLF coordinates, flat `#[repr(C)]` arrays ready for
+//! upload (the GPU propagator binds these very slices), and the diffuse atlas.
+//!
+//! Atlas: every face gets a chart of `width × height` square texels of edge `texel_size` laid on
+//! its plane basis, for each of its two sides (side 0 = front/normal side, side 1 = back).
+//! Texels are clipped exactly against the face's triangles: `texel_area` is the covered area
+//! (0 for texels outside the polygon) and albedo/emission are sampled at the covered part's
+//! centroid, so energy sums (Σ B·area) are exact for the polygon.
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec2, Vec3, Vec4};
+use serde::Serialize;
+
+use super::params::{BakeParams, ParamsError};
+use crate::scene::{MaterialKind, Scene, Texture, WrapMode};
+
+/// A triangle in VLF coordinates (48 bytes; mirrors WGSL `BakeTriangle`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BakeTriangle {
+    pub p0: [f32; 3],
+    /// Index into [`BakeScene::faces`].
+    pub face: u32,
+    pub p1: [f32; 3],
+    pub _pad0: u32,
+    pub p2: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// Face kinds stored in [`BakeFace::kind`].
+pub const FACE_DIFFUSE: u32 = 0;
+pub const FACE_MIRROR: u32 = 1;
+pub const FACE_MIXED: u32 = 2;
+
+/// A planar face with its atlas chart, in VLF coordinates (80 bytes; mirrors WGSL `BakeFace`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BakeFace {
+    /// Unit front normal.
+    pub normal: [f32; 3],
+    /// Plane: `normal · p = offset`.
+    pub offset: f32,
+    /// Chart origin on the plane.
+    pub origin: [f32; 3],
+    /// Texel edge length (VLF units).
+    pub texel_size: f32,
+    /// Chart axis of texel columns.
+    pub u: [f32; 3],
+    /// Texel columns.
+    pub width: u32,
+    /// Chart axis of texel rows.
+    pub v: [f32; 3],
+    /// Texel rows.
+    pub height: u32,
+    /// Index of the first texel of side 0; side 1 starts at `texel_base + width × height`.
+    pub texel_base: u32,
+    /// [`FACE_DIFFUSE`], [`FACE_MIRROR`] or [`FACE_MIXED`].
+    pub kind: u32,
+    /// Mirror weight (0 for diffuse faces).
+    pub specular: f32,
+    pub _pad: u32,
+}
+
+impl BakeFace {
+    pub fn normal(&self) -> Vec3 {
+        Vec3::from(self.normal)
+    }
+
+    /// Texels per side.
+    pub fn texels_per_side(&self) -> u32 {
+        self.width * self.height
+    }
+
+    /// Index of the texel containing plane point `p` on `side` (clamped to the chart).
+    pub fn texel_at(&self, p: Vec3, side: u32) -> u32 {
+        let d = p - Vec3::from(self.origin);
+        let x = (d.dot(Vec3::from(self.u)) / self.texel_size).floor();
+        let y = (d.dot(Vec3::from(self.v)) / self.texel_size).floor();
+        let x = (x.max(0.0) as u32).min(self.width - 1);
+        let y = (y.max(0.0) as u32).min(self.height - 1);
+        self.texel_base + side * self.texels_per_side() + y * self.width + x
+    }
+}
+
+/// Summary of a prepared scene (for logs and `--json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct PrepSummary {
+    pub triangles: usize,
+    pub faces: usize,
+    pub texels: usize,
+    pub covered_texels: usize,
+    pub texel_size_vlf: f32,
+    pub non_diffuse_faces: usize,
+}
+
+/// The prepared scene.
+#[derive(Clone, Debug)]
+pub struct BakeScene {
+    pub triangles: Vec<BakeTriangle>,
+    pub faces: Vec<BakeFace>,
+    /// Covered area of each texel (VLF units²), both sides.
+    pub texel_area: Vec<f32>,
+    /// Centroid of each texel's covered part (VLF); the sample point of the gather.
+    pub texel_center: Vec<[f32; 4]>,
+    /// Diffuse albedo per texel (rgb, a unused).
+    pub albedo: Vec<[f32; 4]>,
+    /// Emitted radiance per texel (front side only; rgb, a unused).
+    pub emission: Vec<[f32; 4]>,
+    /// Suns in VLF: (travel direction, irradiance).
+    pub suns: Vec<(Vec3, Vec3)>,
+    pub texel_size: f32,
+    pub warnings: Vec<String>,
+}
+
+impl BakeScene {
+    /// Prepares `scene` for a bake with `params` (texel size from the ray spacing).
+    pub fn new(scene: &Scene, params: &BakeParams) -> Result<Self, ParamsError> {
+        params.validate()?;
+        let cell = 2.0 / params.resolution as f32;
+        let texel_size = cell * params.texel_scale;
+        let xf = scene.to_vlf;
+        let mut warnings = Vec::new();
+
+        let triangles: Vec<BakeTriangle> = scene
+            .triangles
+            .iter()
+            .map(|t| BakeTriangle {
+                p0: xf.apply(t.p[0]).into(),
+                face: t.face,
+                p1: xf.apply(t.p[1]).into(),
+                _pad0: 0,
+                p2: xf.apply(t.p[2]).into(),
+                _pad1: 0,
+            })
+            .collect();
+
+        let mut faces = Vec::with_capacity(scene.faces.len());
+        let mut texel_count: u64 = 0;
+        let mut non_diffuse = 0;
+        for (fi, f) in scene.faces.iter().enumerate() {
+            let mat = &scene.materials[f.material as usize];
+            let extent = f.extent * xf.scale;
+            let width = ((extent.x / texel_size).ceil() as u32).max(1);
+            let height = ((extent.y / texel_size).ceil() as u32).max(1);
+            let origin = xf.apply(f.basis.origin);
+            let (kind, specular) = match mat.kind {
+                MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
+                MaterialKind::Mirror => (FACE_MIRROR, 1.0),
+                MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
+            };
+            if kind != FACE_DIFFUSE {
+                non_diffuse += 1;
+            }
+            faces.push(BakeFace {
+                normal: f.normal.into(),
+                offset: f.normal.dot(origin),
+                origin: origin.into(),
+                texel_size,
+                u: f.basis.u.into(),
+                width,
+                v: f.basis.v.into(),
+                height,
+                texel_base: texel_count as u32,
+                kind,
+                specular,
+                _pad: 0,
+            });
+            texel_count += 2 * u64::from(width) * u64::from(height);
+            if texel_count > u64::from(u32::MAX / 2) {
+                return Err(ParamsError::OutOfRange {
+                    name: "texel count",
+                    value: format!("{texel_count} at face {fi}"),
+                    range: "< 2^31 (lower --resolution or raise --texel-scale)",
+                });
+            }
+        }
+        if non_diffuse > 0 {
+            warnings.push(format!(
+                "{non_diffuse} mirror/mixed faces: their mirror part is not propagated yet (absorbs light); the diffuse part is"
+            ));
+        }
+        let n = texel_count as usize;
+        let mut texel_area = vec![0f32; n];
+        let mut texel_center = vec![[0f32; 4]; n];
+        let mut albedo = vec![[0f32; 4]; n];
+        let mut emission = vec![[0f32; 4]; n];
+
+        for (fi, f) in scene.faces.iter().enumerate() {
+            let bf = faces[fi];
+            let mat = &scene.materials[f.material as usize];
+            let w = bf.width as usize;
+            let h = bf.height as usize;
+            // Per texel: covered area, area-weighted centroid (chart coords), and the uv at
+            // the centroid of the largest covered piece.
+            let mut area = vec![0f64; w * h];
+            let mut centroid = vec![Vec2::ZERO; w * h];
+            let mut best = vec![(0f64, Vec2::ZERO); w * h];
+            let basis = crate::scene::PlaneBasis {
+                origin: Vec3::from(bf.origin),
+                u: Vec3::from(bf.u),
+                v: Vec3::from(bf.v),
+            };
+            for tri in scene.face_triangles(fi) {
+                let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
+                let lo = q[0].min(q[1]).min(q[2]);
+                let hi = q[0].max(q[1]).max(q[2]);
+                let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
+                let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
+                let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
+                let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let poly = clip_to_square(&q, x as f32, y as f32);
+                        let (a, c) = polygon_area_centroid(&poly);
+                        if a <= 0.0 {
+                            continue;
+                        }
+                        let i = y * w + x;
+                        area[i] += a;
+                        centroid[i] += c * a as f32;
+                        if a > best[i].0 {
+                            // uv at c by barycentrics in the chart triangle.
+                            best[i] = (a, uv_at(&q, &tri.uv, c));
+                        }
+                    }
+                }
+            }
+            for i in 0..w * h {
+                if area[i] <= 0.0 {
+                    continue;
+                }
+                let c = centroid[i] / area[i] as f32 * texel_size;
+                let p = basis.from_chart(c);
+                let uv = best[i].1;
+                let mut base = mat.diffuse_albedo();
+                if let Some(t) = mat.base_color_texture {
+                    base *= sample(&scene.textures[t.index as usize], uv).truncate();
+                }
+                let mut emit = mat.emission;
+                if let Some(t) = mat.emissive_texture {
+                    emit *= sample(&scene.textures[t.index as usize], uv).truncate();
+                }
+                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32;
+                for side in 0..2 {
+                    let k = bf.texel_base as usize + side * w * h + i;
+                    texel_area[k] = a;
+                    texel_center[k] = [p.x, p.y, p.z, 0.0];
+                    albedo[k] = base.extend(0.0).into();
+                    if side == 0 {
+                        emission[k] = emit.extend(0.0).into();
+                    }
+                }
+            }
+        }
+        let suns = scene
+            .suns
+            .iter()
+            .map(|s| (s.direction.normalize(), s.irradiance))
+            .collect();
+        Ok(BakeScene {
+            triangles,
+            faces,
+            texel_area,
+            texel_center,
+            albedo,
+            emission,
+            suns,
+            texel_size,
+            warnings,
+        })
+    }
+
+    pub fn texel_count(&self) -> usize {
+        self.texel_area.len()
+    }
+
+    /// Emitted power Σ π·L_e·area over all texels (VLF units), per channel.
+    pub fn emitted_power(&self) -> Vec3 {
+        self.emission
+            .iter()
+            .zip(&self.texel_area)
+            .map(|(e, a)| Vec4::from(*e).truncate() * (std::f32::consts::PI * a))
+            .fold(Vec3::ZERO, |s, x| s + x)
+    }
+
+    pub fn summary(&self) -> PrepSummary {
+        PrepSummary {
+            triangles: self.triangles.len(),
+            faces: self.faces.len(),
+            texels: self.texel_count(),
+            covered_texels: self.texel_area.iter().filter(|a| **a > 0.0).count(),
+            texel_size_vlf: self.texel_size,
+            non_diffuse_faces: self.faces.iter().filter(|f| f.kind != FACE_DIFFUSE).count(),
+        }
+    }
+}
+
+/// Clips triangle `q` (texel units) against the unit square at `(x, y)` (Sutherland–Hodgman).
+fn clip_to_square(q: &[Vec2; 3], x: f32, y: f32) -> Vec<Vec2> {
+    let mut poly: Vec<Vec2> = q.to_vec();
+    // (axis, bound, keep >= bound?)
+    for (axis, bound, keep_ge) in [
+        (0, x, true),
+        (0, x + 1.0, false),
+        (1, y, true),
+        (1, y + 1.0, false),
+    ] {
+        if poly.is_empty() {
+            break;
+        }
+        let inside = |p: Vec2| {
+            let c = if axis == 0 { p.x } else { p.y };
+            if keep_ge { c >= bound } else { c <= bound }
+        };
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for i in 0..poly.len() {
+            let a = poly[i];
+            let b = poly[(i + 1) % poly.len()];
+            let (ia, ib) = (inside(a), inside(b));
+            if ia {
+                out.push(a);
+            }
+            if ia != ib {
+                let (ca, cb) = if axis == 0 { (a.x, b.x) } else { (a.y, b.y) };
+                let t = (bound - ca) / (cb - ca);
+                out.push(a + (b - a) * t);
+            }
+        }
+        poly = out;
+    }
+    poly
+}
+
+/// Area (absolute) and centroid of a simple polygon.
+fn polygon_area_centroid(poly: &[Vec2]) -> (f64, Vec2) {
+    if poly.len() < 3 {
+        return (0.0, Vec2::ZERO);
+    }
+    let mut a2 = 0f64;
+    let (mut cx, mut cy) = (0f64, 0f64);
+    for i in 0..poly.len() {
+        let p = poly[i].as_dvec2();
+        let q = poly[(i + 1) % poly.len()].as_dvec2();
+        let cr = p.x * q.y - q.x * p.y;
+        a2 += cr;
+        cx += (p.x + q.x) * cr;
+        cy += (p.y + q.y) * cr;
+    }
+    if a2.abs() < 1e-18 {
+        return (0.0, Vec2::ZERO);
+    }
+    let c = Vec2::new((cx / (3.0 * a2)) as f32, (cy / (3.0 * a2)) as f32);
+    (a2.abs() * 0.5, c)
+}
+
+/// Interpolates uv at chart point `c` of triangle `q`.
+fn uv_at(q: &[Vec2; 3], uv: &[Vec2; 3], c: Vec2) -> Vec2 {
+    let e1 = q[1] - q[0];
+    let e2 = q[2] - q[0];
+    let d = c - q[0];
+    let det = e1.perp_dot(e2);
+    if det.abs() < 1e-20 {
+        return uv[0];
+    }
+    let b1 = d.perp_dot(e2) / det;
+    let b2 = e1.perp_dot(d) / det;
+    uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
+}
+
+/// Bilinear texture sample with the texture's wrap modes (glTF uv: v down the image).
+pub fn sample(tex: &Texture, uv: Vec2) -> Vec4 {
+    if tex.width == 0 || tex.height == 0 || tex.pixels.is_empty() || !uv.is_finite() {
+        return Vec4::ONE;
+    }
+    let x = uv.x * tex.width as f32 - 0.5;
+    let y = uv.y * tex.height as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let texel = |i: i64, j: i64| {
+        let i = wrap(tex.wrap_s, i, tex.width);
+        let j = wrap(tex.wrap_t, j, tex.height);
+        tex.pixels[(j as usize) * tex.width as usize + i as usize]
+    };
+    let (i, j) = (x0 as i64, y0 as i64);
+    let top = texel(i, j).lerp(texel(i + 1, j), fx);
+    let bottom = texel(i, j + 1).lerp(texel(i + 1, j + 1), fx);
+    top.lerp(bottom, fy)
+}
+
+fn wrap(mode: WrapMode, i: i64, size: u32) -> u32 {
+    mode.wrap(i, size)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipping_partitions_a_triangle_exactly() {
+        let q = [
+            Vec2::new(0.3, 0.2),
+            Vec2::new(4.7, 1.1),
+            Vec2::new(1.9, 3.6),
+        ];
+        let (whole, _) = polygon_area_centroid(&q);
+        let mut sum = 0.0;
+        for y in 0..4 {
+            for x in 0..5 {
+                sum += polygon_area_centroid(&clip_to_square(&q, x as f32, y as f32)).0;
+            }
+        }
+        assert!((sum - whole).abs() < 1e-5 * whole, "{sum} vs {whole}");
+    }
+}
