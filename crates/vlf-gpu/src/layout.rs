@@ -16,14 +16,71 @@ pub struct SmokeParams {
     pub _pad: u32,
 }
 
+/// Per-direction globals of the bake passes (`shaders/bake_*.wgsl`), one per transport
+/// direction, written at a 256-byte stride and bound with a dynamic offset.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BakeDirection {
+    pub u: [f32; 4],
+    pub v: [f32; 4],
+    pub w: [f32; 4],
+    /// Sun irradiance (rgb) for sun directions.
+    pub sun: [f32; 4],
+    /// Solid angle per sense (quadrature directions).
+    pub weight: f32,
+    pub n: u32,
+    pub tile: u32,
+    pub k_max: u32,
+    /// Offset of this direction's tile starts in the bin buffer.
+    pub bin_base: u32,
+    pub tiles_per_side: u32,
+    pub active_texels: u32,
+    pub is_sun: u32,
+}
+
+/// One crossing of a ray's depth list (`bake_cells.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CellEntry {
+    pub depth: f32,
+    pub face: u32,
+}
+
+/// Arriving radiance at a crossing (`bake_interface.wgsl`); `w` components are open flags.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Crossing {
+    pub below: [f32; 4],
+    pub above: [f32; 4],
+}
+
+/// Per texel-side accumulators (`bake_gather.wgsl`); the GPU form of
+/// `vlf_core::bake::reference::TexelAccum`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TexelAccum {
+    pub irradiance: [f32; 4],
+    pub open: [f32; 4],
+}
+
 /// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
 pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
-    vec![(
-        "SmokeParams",
-        "smoke.wgsl",
-        std::mem::size_of::<SmokeParams>(),
-        std::mem::align_of::<SmokeParams>(),
-    )]
+    use vlf_core::bake::{BakeFace, BakeTriangle};
+    fn entry<T>(name: &'static str, file: &'static str) -> (&'static str, &'static str, usize, usize) {
+        (name, file, std::mem::size_of::<T>(), std::mem::align_of::<T>())
+    }
+    let mut reg = vec![entry::<SmokeParams>("SmokeParams", "smoke.wgsl")];
+    for file in ["bake_cells.wgsl", "bake_interface.wgsl", "bake_gather.wgsl"] {
+        reg.push(entry::<BakeDirection>("BakeDirection", file));
+        reg.push(entry::<CellEntry>("CellEntry", file));
+    }
+    reg.push(entry::<BakeTriangle>("BakeTriangle", "bake_cells.wgsl"));
+    reg.push(entry::<BakeFace>("BakeFace", "bake_interface.wgsl"));
+    reg.push(entry::<BakeFace>("BakeFace", "bake_gather.wgsl"));
+    reg.push(entry::<Crossing>("Crossing", "bake_interface.wgsl"));
+    reg.push(entry::<Crossing>("Crossing", "bake_gather.wgsl"));
+    reg.push(entry::<TexelAccum>("TexelAccum", "bake_gather.wgsl"));
+    reg
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 //! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
 //! * [`readback`]: small helpers to copy buffers back to the CPU (tests, stills, bakes).
 
+pub mod bake;
 pub mod device;
 pub mod layout;
 pub mod passes;

@@ -22,9 +22,12 @@ macro_rules! shader {
 }
 
 pub const SMOKE: Shader = shader!("smoke.wgsl");
+pub const BAKE_CELLS: Shader = shader!("bake_cells.wgsl");
+pub const BAKE_INTERFACE: Shader = shader!("bake_interface.wgsl");
+pub const BAKE_GATHER: Shader = shader!("bake_gather.wgsl");
 
 /// Every shader of the project. The test `registry_matches_folder` keeps this list complete.
-pub const ALL: &[Shader] = &[SMOKE];
+pub const ALL: &[Shader] = &[SMOKE, BAKE_CELLS, BAKE_INTERFACE, BAKE_GATHER];
 
 impl Shader {
     /// Compiles the shader into a module labelled `"Shader::<file>"`.

@@ -1,0 +1,317 @@
+//! The GPU propagator: the same algorithm as `vlf_core::bake::reference`, with steps 2–4 of
+//! every transport direction (cell lists, interface, gather) as compute passes.
+//!
+//! Pass order per direction (the one place it is written down): [`cells`] → [`interface`] →
+//! [`gather`]. Per iteration: upload the unshot radiance, clear the accumulators, run every
+//! direction, read the accumulators back and finish the iteration on the CPU with
+//! `reference::finish_iteration` (a few flops per texel, shared code, f64 energy sums).
+//! Triangle binning into tiles is done once on the CPU (`reference::bin_triangles`) and uploaded.
+
+mod cells;
+mod common;
+mod gather;
+mod interface;
+
+use glam::Vec4;
+use vlf_core::bake::reference::{
+    self, EnergyStats, Propagated, TexelAccum, TransportDir, bin_triangles, project,
+};
+use vlf_core::bake::{BakeParams, BakeScene, Iterations};
+use vlf_core::directions::DirectionSet;
+use vlf_core::psf::{PsfFrame, PsfGrid};
+use wgpu::util::DeviceExt;
+
+use crate::GpuContext;
+use crate::layout::{self, BakeDirection, CellEntry, Crossing};
+use crate::passes::dispatch_2d;
+use crate::readback::read_buffer;
+
+/// Stride of the per-direction uniforms (≥ `min_uniform_buffer_offset_alignment`).
+const DIR_STRIDE: u64 = 256;
+/// Cap on crossings kept per ray.
+pub const MAX_CROSSINGS: u32 = 256;
+/// Directions encoded per submission (progress granularity).
+const DIRS_PER_SUBMIT: usize = 32;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuBakeError {
+    #[error(
+        "{what} needs {need} bytes in one GPU buffer but the adapter allows {limit}; lower --resolution or --directions"
+    )]
+    TooLarge { what: &'static str, need: u64, limit: u64 },
+    #[error("a ray crosses {crossings} faces, more than the {max} supported (depth complexity too high)")]
+    DepthComplexity { crossings: u32, max: u32 },
+    #[error("reading back from the GPU failed (device lost?)")]
+    Readback,
+}
+
+/// Progress of a GPU propagation, for the binary's progress bar.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub iteration: u32,
+    pub max_iterations: u32,
+    pub directions_done: usize,
+    pub directions: usize,
+}
+
+struct Binned {
+    start: Vec<u32>,
+    tris: Vec<u32>,
+    /// Offset of each direction's tile starts in `start`.
+    base: Vec<u32>,
+    k_max: u32,
+}
+
+fn bin_all(scene: &BakeScene, grid: &PsfGrid, dirs: &[TransportDir]) -> Binned {
+    let mut out = Binned {
+        start: Vec::new(),
+        tris: Vec::new(),
+        base: Vec::with_capacity(dirs.len()),
+        k_max: 1,
+    };
+    for d in dirs {
+        let bins = bin_triangles(&project(scene, &d.frame), grid);
+        out.k_max = out.k_max.max(bins.max_len());
+        out.base.push(out.start.len() as u32);
+        let offset = out.tris.len() as u32;
+        out.start.extend(bins.start.iter().map(|s| s + offset));
+        out.tris.extend_from_slice(&bins.tris);
+    }
+    out
+}
+
+fn check_size(ctx: &GpuContext, what: &'static str, bytes: u64) -> Result<(), GpuBakeError> {
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    if bytes > limit {
+        return Err(GpuBakeError::TooLarge {
+            what,
+            need: bytes,
+            limit,
+        });
+    }
+    Ok(())
+}
+
+fn buffer<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    // Zero-length storage bindings are invalid: pad empty arrays to one element.
+    let zero = [T::zeroed()];
+    let data = if data.is_empty() { &zero[..] } else { data };
+    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(data),
+        usage: wgpu::BufferUsages::STORAGE | usage,
+    })
+}
+
+fn empty(ctx: &GpuContext, label: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(16),
+        usage: wgpu::BufferUsages::STORAGE | usage,
+        mapped_at_creation: false,
+    })
+}
+
+/// Runs the propagation on the GPU. Same inputs and outputs as `reference::propagate`.
+pub fn propagate(
+    ctx: &GpuContext,
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Propagated, GpuBakeError> {
+    let device = &ctx.device;
+    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
+    let n = params.resolution;
+    let mut dirs = reference::transport_directions(set, params);
+    let quadrature = dirs.len();
+    dirs.extend(scene.suns.iter().map(|&(d, e)| TransportDir {
+        frame: PsfFrame::new(d),
+        weight: 1.0,
+        sun: Some(e),
+    }));
+    let binned = bin_all(scene, &grid, &dirs);
+    let k_max = binned.k_max.min(MAX_CROSSINGS);
+    let cells_n = u64::from(n) * u64::from(n);
+    check_size(ctx, "the ray crossing lists", cells_n * u64::from(k_max) * size_of::<Crossing>() as u64)?;
+    check_size(ctx, "the tile bins", binned.tris.len() as u64 * 4)?;
+    let n_tex = scene.texel_count();
+    check_size(ctx, "the texel accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64)?;
+
+    // Geometry and atlas (uploaded once).
+    let triangles = buffer(ctx, "Bake::triangles", &scene.triangles, wgpu::BufferUsages::empty());
+    let faces = buffer(ctx, "Bake::faces", &scene.faces, wgpu::BufferUsages::empty());
+    let tex_face = reference::texel_faces(scene);
+    let centers: Vec<[f32; 4]> = scene
+        .texel_center
+        .iter()
+        .zip(&tex_face)
+        .map(|(c, &f)| [c[0], c[1], c[2], f32::from_bits(f)])
+        .collect();
+    let texel_center = buffer(ctx, "Bake::texel_center", &centers, wgpu::BufferUsages::empty());
+    let active_list: Vec<u32> = (0..n_tex)
+        .filter(|&t| {
+            let f = &scene.faces[tex_face[t] as usize];
+            scene.texel_area[t] > 0.0 && (t as u32 - f.texel_base) < f.texels_per_side()
+        })
+        .map(|t| t as u32)
+        .collect();
+    let active = buffer(ctx, "Bake::active_texels", &active_list, wgpu::BufferUsages::empty());
+    let bin_start = buffer(ctx, "Bake::bin_start", &binned.start, wgpu::BufferUsages::empty());
+    let bin_tris = buffer(ctx, "Bake::bin_tris", &binned.tris, wgpu::BufferUsages::empty());
+    let unshot = buffer(ctx, "Bake::unshot", &scene.emission, wgpu::BufferUsages::COPY_DST);
+    let cell_count = empty(ctx, "Bake::cell_count", cells_n * 4, wgpu::BufferUsages::empty());
+    let cells = empty(ctx, "Bake::cells", cells_n * u64::from(k_max) * size_of::<CellEntry>() as u64, wgpu::BufferUsages::empty());
+    let crossings = empty(ctx, "Bake::crossings", cells_n * u64::from(k_max) * size_of::<Crossing>() as u64, wgpu::BufferUsages::empty());
+    let acc = empty(ctx, "Bake::accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+    let overflow = buffer(ctx, "Bake::overflow", &[0u32; 4], wgpu::BufferUsages::COPY_SRC);
+
+    // Per-direction globals at a 256-byte stride.
+    let mut uniform_bytes = vec![0u8; dirs.len() * DIR_STRIDE as usize];
+    for (i, d) in dirs.iter().enumerate() {
+        let g = BakeDirection {
+            u: d.frame.u.extend(0.0).into(),
+            v: d.frame.v.extend(0.0).into(),
+            w: d.frame.w.extend(0.0).into(),
+            sun: d.sun.unwrap_or_default().extend(0.0).into(),
+            weight: d.weight,
+            n,
+            tile: params.tile,
+            k_max,
+            bin_base: binned.base[i],
+            tiles_per_side: grid.tiles_per_side(),
+            active_texels: active_list.len() as u32,
+            is_sun: u32::from(d.sun.is_some()),
+        };
+        let at = i * DIR_STRIDE as usize;
+        uniform_bytes[at..at + size_of::<BakeDirection>()].copy_from_slice(bytemuck::bytes_of(&g));
+    }
+    let dir_uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("Bake::directions"),
+        contents: &uniform_bytes,
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("Bake::globals_layout"),
+        entries: &[wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(size_of::<BakeDirection>() as u64),
+            },
+            count: None,
+        }],
+    });
+    let globals = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("Bake::globals"),
+        layout: &globals_layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &dir_uniforms,
+                offset: 0,
+                size: wgpu::BufferSize::new(size_of::<BakeDirection>() as u64),
+            }),
+        }],
+    });
+    let cells_pass = cells::CellsPass::new(device, &globals_layout);
+    let interface_pass = interface::InterfacePass::new(device, &globals_layout);
+    let gather_pass = gather::GatherPass::new(device, &globals_layout);
+    let cells_bg = cells_pass.bind_group(device, &[&triangles, &bin_start, &bin_tris, &cell_count, &cells, &overflow]);
+    let interface_bg = interface_pass.bind_group(device, &[&faces, &unshot, &cell_count, &cells, &crossings]);
+    let gather_bg = gather_pass.bind_group(device, &[&faces, &active, &texel_center, &cell_count, &cells, &crossings, &acc]);
+
+    let max_dim = device.limits().max_compute_workgroups_per_dimension;
+    let cell_groups = dispatch_2d(n * n, 64, max_dim);
+    let texel_groups = dispatch_2d(active_list.len() as u32, 64, max_dim);
+
+    let mut unshot_host = scene.emission.clone();
+    let mut total = scene.emission.clone();
+    let mut next = vec![[0f32; 4]; n_tex];
+    let mut energy = EnergyStats {
+        emitted: scene.emitted_power().to_array().iter().map(|&x| f64::from(x)).sum(),
+        ..Default::default()
+    };
+    let (max_iter, threshold) = match params.iterations {
+        Iterations::Fixed(k) => (k, 0.0),
+        Iterations::Converge { threshold, max } => (max, threshold),
+    };
+    let mut iterations = 0;
+    for it in 0..max_iter {
+        let first = it == 0;
+        ctx.queue.write_buffer(&unshot, 0, bytemuck::cast_slice(&unshot_host));
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("Bake::clear") });
+        encoder.clear_buffer(&acc, 0, None);
+        ctx.queue.submit(Some(encoder.finish()));
+        let active_dirs: Vec<usize> = (0..dirs.len()).filter(|&i| i < quadrature || first).collect();
+        for (chunk_i, chunk) in active_dirs.chunks(DIRS_PER_SUBMIT).enumerate() {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("Bake::directions") });
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("Bake::pass"),
+                    timestamp_writes: None,
+                });
+                for &d in chunk {
+                    let offset = [(d as u64 * DIR_STRIDE) as u32];
+                    pass.set_bind_group(0, &globals, &offset);
+                    pass.set_pipeline(&cells_pass.pipeline);
+                    pass.set_bind_group(1, &cells_bg, &[]);
+                    pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                    pass.set_pipeline(&interface_pass.pipeline);
+                    pass.set_bind_group(1, &interface_bg, &[]);
+                    pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                    if !active_list.is_empty() {
+                        pass.set_pipeline(&gather_pass.pipeline);
+                        pass.set_bind_group(1, &gather_bg, &[]);
+                        pass.dispatch_workgroups(texel_groups.0, texel_groups.1, 1);
+                    }
+                }
+            }
+            ctx.queue.submit(Some(encoder.finish()));
+            let _ = device.poll(wgpu::PollType::wait_indefinitely());
+            progress(Progress {
+                iteration: it,
+                max_iterations: max_iter,
+                directions_done: (chunk_i * DIRS_PER_SUBMIT + chunk.len()).min(active_dirs.len()),
+                directions: active_dirs.len(),
+            });
+        }
+        let over: Vec<u32> = read_buffer(device, &ctx.queue, &overflow).map_err(|_| GpuBakeError::Readback)?;
+        if over[0] > 0 {
+            return Err(GpuBakeError::DepthComplexity { crossings: over[0], max: k_max });
+        }
+        let gpu_acc: Vec<layout::TexelAccum> = read_buffer(device, &ctx.queue, &acc).map_err(|_| GpuBakeError::Readback)?;
+        let acc_host: Vec<TexelAccum> = gpu_acc
+            .iter()
+            .take(n_tex)
+            .map(|a| TexelAccum {
+                irradiance: Vec4::from(a.irradiance),
+                open: Vec4::from(a.open),
+            })
+            .collect();
+        let sky = if first { params.sky } else { glam::Vec3::ZERO };
+        let e = reference::finish_iteration(scene, &acc_host, &unshot_host, sky, &mut next);
+        log::debug!("GPU iteration {it}: sent {:.5} received {:.5} escaped {:.5} next {:.5}", e.sent, e.received, e.escaped, e.next);
+        energy.injected += e.injected;
+        energy.absorbed += e.absorbed;
+        energy.escaped += e.escaped;
+        energy.unshot = e.next;
+        energy.unshot_history.push(e.next);
+        for (t, nx) in total.iter_mut().zip(&next) {
+            *t = (Vec4::from(*t) + Vec4::from(*nx)).into();
+        }
+        std::mem::swap(&mut unshot_host, &mut next);
+        iterations = it + 1;
+        let src = energy.emitted + energy.injected;
+        if threshold > 0.0 && (src <= 0.0 || e.next <= f64::from(threshold) * src) {
+            break;
+        }
+    }
+    Ok(Propagated {
+        radiance: total,
+        iterations,
+        energy,
+    })
+}
