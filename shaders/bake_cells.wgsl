@@ -20,6 +20,23 @@ struct BakeDirection {
     tiles_per_side: u32,
     active_texels: u32,
     is_sun: u32,
+    spec_plus_v: vec4<u32>,
+    spec_plus_w: vec4<f32>,
+    spec_minus_v: vec4<u32>,
+    spec_minus_w: vec4<f32>,
+    sky: vec4<f32>,
+    tiles_l: u32,
+    tile_m: u32,
+    words_per_slot: u32,
+    face_slot_off: u32,
+    index_start_off: u32,
+    tile_ids_off: u32,
+    coverage_off: u32,
+    tile_values_off: u32,
+    items_base: u32,
+    items_count: u32,
+    has_tiles: u32,
+    _pad: u32,
 }
 
 // A triangle in VLF coordinates (mirrors vlf_core::bake::BakeTriangle).

@@ -19,6 +19,23 @@ struct BakeDirection {
     tiles_per_side: u32,
     active_texels: u32,
     is_sun: u32,
+    spec_plus_v: vec4<u32>,
+    spec_plus_w: vec4<f32>,
+    spec_minus_v: vec4<u32>,
+    spec_minus_w: vec4<f32>,
+    sky: vec4<f32>,
+    tiles_l: u32,
+    tile_m: u32,
+    words_per_slot: u32,
+    face_slot_off: u32,
+    index_start_off: u32,
+    tile_ids_off: u32,
+    coverage_off: u32,
+    tile_values_off: u32,
+    items_base: u32,
+    items_count: u32,
+    has_tiles: u32,
+    _pad: u32,
 }
 
 struct BakeFace {
@@ -51,10 +68,75 @@ struct Crossing {
 @group(0) @binding(0) var<uniform> dir: BakeDirection;
 
 @group(1) @binding(0) var<storage, read> faces: array<BakeFace>;
+// Unshot radiance: atlas texels, then the non-diffuse tile values from dir.tile_values_off.
 @group(1) @binding(1) var<storage, read> unshot: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> cell_count: array<u32>;
 @group(1) @binding(3) var<storage, read> cells: array<CellEntry>;
 @group(1) @binding(4) var<storage, read_write> crossings: array<Crossing>;
+// Packed tile index (vlf_core::bake::tiles::TileIndex): face_slot, index_start, tile_ids,
+// coverage at the offsets in `dir`.
+@group(1) @binding(5) var<storage, read> tile_index: array<u32>;
+// Frames of the fixed directions: u, v, w (xyz) for direction j at 3j, 3j+1, 3j+2.
+@group(1) @binding(6) var<storage, read> frames: array<vec4<f32>>;
+// Per ray: specular power escaping through the ray's open ends (rgb), summed over directions.
+@group(1) @binding(7) var<storage, read_write> spec_escape: array<vec4<f32>>;
+
+fn cell_at(x: f32) -> u32 {
+    let nf = f32(dir.n);
+    return u32(clamp(floor((x + 1.0) * 0.5 * nf), 0.0, nf - 1.0));
+}
+
+// Index of the tile value of `face` at cell (ci, cj) of fixed direction j, sense `sense`, or -1.
+fn value_index(face: u32, j: u32, sense: u32, ci: u32, cj: u32) -> i32 {
+    let mf = tile_index[dir.face_slot_off + face];
+    if (mf == 0xffffffffu) {
+        return -1;
+    }
+    let k = mf * dir.tiles_l + j;
+    var lo = tile_index[dir.index_start_off + k];
+    var hi = tile_index[dir.index_start_off + k + 1u];
+    let m = dir.tile_m;
+    let tile = (cj / m) * (dir.n / m) + ci / m;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        let t = tile_index[dir.tile_ids_off + mid];
+        if (t == tile) {
+            return i32((mid * 2u + sense) * m * m + (cj % m) * m + ci % m);
+        }
+        if (t < tile) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return -1;
+}
+
+// Specular unshot radiance leaving `face` at y along +w (plus) or −w: the three fixed
+// directions around it with their barycentric weights (vlf_core::bake::tiles::specular_outgoing).
+fn specular(face: u32, y: vec3<f32>, plus: bool) -> vec3<f32> {
+    var verts = dir.spec_minus_v;
+    var weights = dir.spec_minus_w;
+    if (plus) {
+        verts = dir.spec_plus_v;
+        weights = dir.spec_plus_w;
+    }
+    var out = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        if (weights[k] <= 0.0) {
+            continue;
+        }
+        let j = verts[k] % dir.tiles_l;
+        let sense = verts[k] / dir.tiles_l;
+        let a = dot(y, frames[3u * j].xyz);
+        let b = dot(y, frames[3u * j + 1u].xyz);
+        let i = value_index(face, j, sense, cell_at(a), cell_at(b));
+        if (i >= 0) {
+            out += unshot[dir.tile_values_off + u32(i)].xyz * weights[k];
+        }
+    }
+    return out;
+}
 
 fn texel_at(f: BakeFace, p: vec3<f32>, side: u32) -> u32 {
     let d = p - f.origin;
@@ -65,12 +147,22 @@ fn texel_at(f: BakeFace, p: vec3<f32>, side: u32) -> u32 {
     return f.texel_base + side * f.width * f.height + yi * f.width + xi;
 }
 
-// Unshot radiance leaving crossing e of the ray at (a, b) in direction toward·w.
+// Unshot radiance leaving crossing e of the ray at (a, b) in direction toward·w: the diffuse
+// texel plus, for non-diffuse faces, the specular tiles.
 fn outgoing(e: CellEntry, a: f32, b: f32, toward: f32) -> vec3<f32> {
     let f = faces[e.face];
     let y = dir.u.xyz * a + dir.v.xyz * b + dir.w.xyz * e.depth;
     let side = select(0u, 1u, dot(f.normal, dir.w.xyz) * toward <= 0.0);
-    return unshot[texel_at(f, y, side)].xyz;
+    var l = unshot[texel_at(f, y, side)].xyz;
+    if (dir.has_tiles != 0u && f.kind != 0u) {
+        l += specular(e.face, y, toward > 0.0);
+    }
+    return l;
+}
+
+fn specular_at(e: CellEntry, a: f32, b: f32, plus: bool) -> vec3<f32> {
+    let y = dir.u.xyz * a + dir.v.xyz * b + dir.w.xyz * e.depth;
+    return specular(e.face, y, plus);
 }
 
 @compute @workgroup_size(64)
@@ -95,5 +187,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             above = vec4<f32>(outgoing(cells[base + k + 1u], a, b, -1.0), 0.0);
         }
         crossings[base + k] = Crossing(below, above);
+    }
+    // Specular light leaving through an open end escapes (diffuse escapes are counted per
+    // texel from the open fractions).
+    if (dir.has_tiles != 0u && dir.is_sun == 0u && count > 0u) {
+        var esc = vec3<f32>(0.0);
+        let top = cells[base + count - 1u];
+        if (faces[top.face].kind != 0u) {
+            esc += specular_at(top, a, b, true);
+        }
+        let bottom = cells[base];
+        if (faces[bottom.face].kind != 0u) {
+            esc += specular_at(bottom, a, b, false);
+        }
+        spec_escape[c] += vec4<f32>(esc * (cell * cell * dir.weight), 0.0);
     }
 }

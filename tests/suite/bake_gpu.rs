@@ -115,3 +115,40 @@ fn gpu_open_plane_under_sky() {
         }
     }
 }
+
+/// GPU equals the CPU reference on the mirror Cornell box (texels and mirror tiles).
+#[test]
+fn gpu_matches_cpu_reference_on_mirror_cornell_box() {
+    let scene = vlf_core::scene::load(&repo_dir().join("assets/cornell-mirror/cornell-mirror.gltf")).unwrap();
+    let params = BakeParams {
+        directions: 46,
+        resolution: 32,
+        tile: 8,
+        iterations: Iterations::Fixed(3),
+        ..BakeParams::paper()
+    };
+    let Some((prep, cpu, gpu)) = both(&scene, &params) else { return };
+    let (mean, p99) = difference(&prep, &cpu.radiance, &gpu.radiance, 1e-4);
+    let (ci, cv) = cpu.tiles.as_ref().expect("CPU tiles");
+    let (gi, gv) = gpu.tiles.as_ref().expect("GPU tiles");
+    assert_eq!(ci, gi, "tile index");
+    let (mut sum, mut norm, mut worst) = (0f64, 0f64, 0f32);
+    for (a, b) in cv.iter().zip(gv) {
+        let (a, b) = (Vec4::from(*a).truncate(), Vec4::from(*b).truncate());
+        sum += f64::from((a - b).abs().element_sum());
+        norm += f64::from(a.element_sum());
+        if a.max_element() > 1e-3 {
+            worst = worst.max((a - b).abs().max_element() / a.max_element());
+        }
+    }
+    let tile_rel = sum / norm.max(1e-30);
+    eprintln!("mirror box GPU vs CPU: texels mean {mean:.2e} p99 {p99:.2e}; tiles L1 {tile_rel:.2e}, worst {worst:.2e}");
+    assert!(mean < 1e-3 && p99 < 1e-2, "texels: mean {mean:.2e} p99 {p99:.2e}");
+    assert!(tile_rel < 1e-3, "tiles: relative L1 difference {tile_rel:.2e}");
+    assert!(
+        ((cpu.energy.escaped - gpu.energy.escaped) / cpu.energy.escaped).abs() < 1e-3,
+        "{:?} vs {:?}",
+        cpu.energy,
+        gpu.energy
+    );
+}

@@ -20,6 +20,9 @@ fn main() {
     if let Some(i) = args.get(4) {
         p.iterations = Iterations::Fixed(i.parse().unwrap());
     }
+    if let Ok(v) = std::env::var("VLF_PERTURB") {
+        p.perturb = v.parse().unwrap();
+    }
     let t = std::time::Instant::now();
     let prep = BakeScene::new(&scene, &p).unwrap();
     let set = DirectionSet::at_least(p.directions).unwrap();

@@ -36,6 +36,47 @@ pub struct BakeDirection {
     pub tiles_per_side: u32,
     pub active_texels: u32,
     pub is_sun: u32,
+    /// Sphere vertices (3 used) and weights of the specular lookup for light leaving along
+    /// +w and along −w (non-diffuse senders).
+    pub spec_plus_v: [u32; 4],
+    pub spec_plus_w: [f32; 4],
+    pub spec_minus_v: [u32; 4],
+    pub spec_minus_w: [f32; 4],
+    /// Sky radiance entering open ends in this iteration (rgb).
+    pub sky: [f32; 4],
+    /// Fixed directions l.
+    pub tiles_l: u32,
+    /// Cells per tile side m.
+    pub tile_m: u32,
+    pub words_per_slot: u32,
+    /// Offsets (in u32) of the arrays packed in the tile index buffer.
+    pub face_slot_off: u32,
+    pub index_start_off: u32,
+    pub tile_ids_off: u32,
+    pub coverage_off: u32,
+    /// Offset (in vec4) of the tile values in the unshot buffer.
+    pub tile_values_off: u32,
+    /// This direction's reflect items.
+    pub items_base: u32,
+    pub items_count: u32,
+    /// 1 when the scene has non-diffuse faces.
+    pub has_tiles: u32,
+    pub _pad: u32,
+}
+
+/// One unit of the reflect pass (`bake_reflect.wgsl`): one destination tile slot of one
+/// reflect job; m² invocations each.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ReflectItem {
+    /// ρ_s × barycentric × ΔΩ_t / W_v (rgb); w unused.
+    pub weight: [f32; 4],
+    pub slot: u32,
+    pub face: u32,
+    /// Fixed direction of the destination.
+    pub j: u32,
+    /// bit 0: incoming sense (0 = +w), bit 1: destination sense.
+    pub senses: u32,
 }
 
 /// One crossing of a ray's depth list (`bake_cells.wgsl`).
@@ -70,7 +111,10 @@ pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
         (name, file, std::mem::size_of::<T>(), std::mem::align_of::<T>())
     }
     let mut reg = vec![entry::<SmokeParams>("SmokeParams", "smoke.wgsl")];
-    for file in ["bake_cells.wgsl", "bake_interface.wgsl", "bake_gather.wgsl"] {
+    reg.push(entry::<ReflectItem>("ReflectItem", "bake_reflect.wgsl"));
+    reg.push(entry::<BakeFace>("BakeFace", "bake_reflect.wgsl"));
+    reg.push(entry::<Crossing>("Crossing", "bake_reflect.wgsl"));
+    for file in ["bake_cells.wgsl", "bake_interface.wgsl", "bake_gather.wgsl", "bake_reflect.wgsl"] {
         reg.push(entry::<BakeDirection>("BakeDirection", file));
         reg.push(entry::<CellEntry>("CellEntry", file));
     }

@@ -25,9 +25,10 @@ pub const SMOKE: Shader = shader!("smoke.wgsl");
 pub const BAKE_CELLS: Shader = shader!("bake_cells.wgsl");
 pub const BAKE_INTERFACE: Shader = shader!("bake_interface.wgsl");
 pub const BAKE_GATHER: Shader = shader!("bake_gather.wgsl");
+pub const BAKE_REFLECT: Shader = shader!("bake_reflect.wgsl");
 
 /// Every shader of the project. The test `registry_matches_folder` keeps this list complete.
-pub const ALL: &[Shader] = &[SMOKE, BAKE_CELLS, BAKE_INTERFACE, BAKE_GATHER];
+pub const ALL: &[Shader] = &[SMOKE, BAKE_CELLS, BAKE_INTERFACE, BAKE_GATHER, BAKE_REFLECT];
 
 impl Shader {
     /// Compiles the shader into a module labelled `"Shader::<file>"`.

@@ -8,6 +8,7 @@
 pub mod params;
 pub mod prep;
 pub mod reference;
+pub mod tiles;
 
 pub use params::{BakeParams, Iterations, ParamsError, Quality};
 pub use prep::{BakeFace, BakeScene, BakeTriangle};

@@ -106,6 +106,8 @@ pub struct BakeScene {
     pub albedo: Vec<[f32; 4]>,
     /// Emitted radiance per texel (front side only; rgb, a unused).
     pub emission: Vec<[f32; 4]>,
+    /// Mirror reflectance per face (rgb; zero for diffuse faces).
+    pub specular: Vec<[f32; 4]>,
     /// Suns in VLF: (travel direction, irradiance).
     pub suns: Vec<(Vec3, Vec3)>,
     pub texel_size: f32,
@@ -119,7 +121,7 @@ impl BakeScene {
         let cell = 2.0 / params.resolution as f32;
         let texel_size = cell * params.texel_scale;
         let xf = scene.to_vlf;
-        let mut warnings = Vec::new();
+        let warnings = Vec::new();
 
         let triangles: Vec<BakeTriangle> = scene
             .triangles
@@ -136,7 +138,6 @@ impl BakeScene {
 
         let mut faces = Vec::with_capacity(scene.faces.len());
         let mut texel_count: u64 = 0;
-        let mut non_diffuse = 0;
         for (fi, f) in scene.faces.iter().enumerate() {
             let mat = &scene.materials[f.material as usize];
             let extent = f.extent * xf.scale;
@@ -148,9 +149,6 @@ impl BakeScene {
                 MaterialKind::Mirror => (FACE_MIRROR, 1.0),
                 MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
             };
-            if kind != FACE_DIFFUSE {
-                non_diffuse += 1;
-            }
             faces.push(BakeFace {
                 normal: f.normal.into(),
                 offset: f.normal.dot(origin),
@@ -173,11 +171,6 @@ impl BakeScene {
                     range: "< 2^31 (lower --resolution or raise --texel-scale)",
                 });
             }
-        }
-        if non_diffuse > 0 {
-            warnings.push(format!(
-                "{non_diffuse} mirror/mixed faces: their mirror part is not propagated yet (absorbs light); the diffuse part is"
-            ));
         }
         let n = texel_count as usize;
         let mut texel_area = vec![0f32; n];
@@ -252,6 +245,16 @@ impl BakeScene {
                 }
             }
         }
+        let specular = scene
+            .faces
+            .iter()
+            .map(|f| {
+                scene.materials[f.material as usize]
+                    .specular_reflectance()
+                    .extend(0.0)
+                    .into()
+            })
+            .collect();
         let suns = scene
             .suns
             .iter()
@@ -264,6 +267,7 @@ impl BakeScene {
             texel_center,
             albedo,
             emission,
+            specular,
             suns,
             texel_size,
             warnings,

@@ -20,7 +20,8 @@ use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
 
 use super::params::{BakeParams, Iterations};
-use super::prep::BakeScene;
+use super::prep::{BakeScene, FACE_DIFFUSE};
+use super::tiles;
 use crate::directions::DirectionSet;
 use crate::psf::{PsfFrame, PsfGrid, twist_angle};
 
@@ -135,6 +136,8 @@ impl EnergyStats {
 pub struct Propagated {
     /// Total outgoing radiance per texel (rgb, a = 0).
     pub radiance: Vec<[f32; 4]>,
+    /// Sparse tiles of non-diffuse faces and their total outgoing radiance (specular part).
+    pub tiles: Option<(tiles::TileIndex, Vec<[f32; 4]>)>,
     pub iterations: u32,
     pub energy: EnergyStats,
 }
@@ -167,7 +170,11 @@ pub struct Bins {
 impl Bins {
     /// Longest tile list: an upper bound on the crossings of any ray of this direction.
     pub fn max_len(&self) -> u32 {
-        self.start.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0)
+        self.start
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(0)
     }
 }
 
@@ -194,7 +201,8 @@ pub fn bin_triangles(proj: &[[Vec3; 3]], grid: &PsfGrid) -> Bins {
         let hi = q[0].max(q[1]).max(q[2]);
         // cells whose centre (−1 + (i + 0.5)·cell) lies in [lo, hi], widened by one cell
         // against rounding differences between the CPU and GPU projections.
-        let first = |x: f32| ((((x + 1.0) / cell - 0.5).floor() - 1.0).max(0.0) as usize).min(n - 1);
+        let first =
+            |x: f32| ((((x + 1.0) / cell - 0.5).floor() - 1.0).max(0.0) as usize).min(n - 1);
         let last = |x: f32| ((((x + 1.0) / cell - 0.5).ceil() + 1.0).max(0.0) as usize).min(n - 1);
         let (i0, j0, i1, j1) = (first(lo.x), first(lo.y), last(hi.x), last(hi.y));
         let r = (i0 / m, j0 / m, i1 / m, j1 / m);
@@ -300,24 +308,45 @@ pub struct Interface {
     pub last: bool,
 }
 
-/// Step 3: arriving radiance at every crossing.
+/// The non-diffuse state of an iteration: tile index, fixed-direction frames and the unshot
+/// tile radiance that senders read.
+pub struct Specular<'a> {
+    pub index: &'a tiles::TileIndex,
+    pub set: &'a DirectionSet,
+    pub frames: &'a [PsfFrame],
+    pub unshot: &'a [[f32; 4]],
+}
+
+/// Step 3: arriving radiance at every crossing. Also returns the specular power that leaves
+/// through open ends of rays (escapes), for the energy bookkeeping.
 pub fn interface(
     scene: &BakeScene,
     grid: &PsfGrid,
-    frame: &PsfFrame,
+    dir: &TransportDir,
     lists: &CellLists,
     unshot: &[[f32; 4]],
-) -> Vec<Interface> {
+    spec: Option<&Specular>,
+) -> (Vec<Interface>, f64) {
+    let frame = &dir.frame;
     let n = grid.n as usize;
     let w = frame.w;
     let mut out = vec![Interface::default(); lists.entries.len()];
+    let cell_power = f64::from(grid.cell_size() * grid.cell_size() * dir.weight);
+    let mut escaped = 0f64;
     // Unshot radiance leaving crossing `e` of `cell` in direction `toward`·w.
-    let outgoing = |cell: (u32, u32), e: (f32, u32), toward: f32| -> Vec3 {
+    let outgoing = |cell: (u32, u32), e: (f32, u32), toward: f32| -> (Vec3, Vec3) {
         let f = &scene.faces[e.1 as usize];
         let (a, b) = grid.cell_center(cell.0, cell.1);
         let y = frame.from_psf(Vec3::new(a, b, e.0));
         let side = u32::from(f.normal().dot(w) * toward <= 0.0);
-        Vec4::from(unshot[f.texel_at(y, side) as usize]).truncate()
+        let diffuse = Vec4::from(unshot[f.texel_at(y, side) as usize]).truncate();
+        let specular = match spec {
+            Some(sp) if f.kind != FACE_DIFFUSE => {
+                tiles::specular_outgoing(sp.index, sp.unshot, sp.set, sp.frames, e.1, y, w * toward)
+            }
+            _ => Vec3::ZERO,
+        };
+        (diffuse, specular)
     };
     for c in 0..n * n {
         let cell = ((c % n) as u32, (c / n) as u32);
@@ -326,23 +355,154 @@ pub fn interface(
         for k in 0..list.len() {
             let first = k == 0;
             let last = k + 1 == list.len();
+            let sum = |(d, s): (Vec3, Vec3)| d + s;
             out[s + k] = Interface {
                 from_below: if first {
                     Vec3::ZERO
                 } else {
-                    outgoing(cell, list[k - 1], 1.0)
+                    sum(outgoing(cell, list[k - 1], 1.0))
                 },
                 from_above: if last {
                     Vec3::ZERO
                 } else {
-                    outgoing(cell, list[k + 1], -1.0)
+                    sum(outgoing(cell, list[k + 1], -1.0))
                 },
                 first,
                 last,
             };
+            // Specular light leaving through an open end escapes (diffuse escapes are counted
+            // per texel from the open fractions).
+            if spec.is_some()
+                && dir.sun.is_none()
+                && scene.faces[list[k].1 as usize].kind != FACE_DIFFUSE
+            {
+                if last {
+                    escaped += sum3(outgoing(cell, list[k], 1.0).1) * cell_power;
+                }
+                if first {
+                    escaped += sum3(outgoing(cell, list[k], -1.0).1) * cell_power;
+                }
+            }
         }
     }
-    out
+    (out, escaped)
+}
+
+/// What one direction's gather needs for non-diffuse faces: the sender state, this direction's
+/// reflect jobs, and the next-iteration tiles they write.
+pub type SpecularStep<'a, 'b> = (&'a Specular<'a>, &'b [tiles::ReflectJob], &'b mut [[f32; 4]]);
+
+/// The reflect step (receiving on non-diffuse faces) for one transport direction: every
+/// destination cell of every job maps through the face plane into this direction's PSF and
+/// gathers the radiance arriving there (`sky` enters through open ends).
+#[allow(clippy::too_many_arguments)]
+pub fn reflect(
+    scene: &BakeScene,
+    grid: &PsfGrid,
+    dir: &TransportDir,
+    lists: &CellLists,
+    iface: &[Interface],
+    index: &tiles::TileIndex,
+    frames: &[PsfFrame],
+    jobs: &[tiles::ReflectJob],
+    sky: Vec3,
+    next: &mut [[f32; 4]],
+) {
+    let n = grid.n;
+    let m = index.m;
+    let tps = n / m;
+    for job in jobs {
+        let f = &scene.faces[job.face as usize];
+        let normal = f.normal();
+        let fr = &frames[job.j as usize];
+        let ndw = normal.dot(fr.w);
+        if ndw.abs() < MIN_COS {
+            continue;
+        }
+        let mf = index.face_slot[job.face as usize] as usize;
+        let k = mf * index.directions as usize + job.j as usize;
+        for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
+            let tile = index.tile_ids[slot];
+            let (tx, ty) = (tile % tps, tile / tps);
+            for local in 0..m * m {
+                if !index.covered(slot, local) {
+                    continue;
+                }
+                let (ci, cj) = (tx * m + local % m, ty * m + local / m);
+                let (a, b) = grid.cell_center(ci, cj);
+                let o = fr.u * a + fr.v * b;
+                let x = o + fr.w * ((f.offset - normal.dot(o)) / ndw);
+                let q = dir.frame.to_psf(x);
+                // The nearest ray of this direction that crosses the face (the destination
+                // point may lie just outside the face as this grid samples it).
+                let Some(k) = nearest_crossing(grid, lists, q.x, q.y, job.face) else {
+                    continue;
+                };
+                let cr = &iface[k];
+                let arriving = match (dir.sun, job.incoming_sense) {
+                    (Some(irr), _) => irr * f32::from(u8::from(cr.first)),
+                    (None, 0) => cr.from_below + sky * f32::from(u8::from(cr.first)),
+                    (None, _) => cr.from_above + sky * f32::from(u8::from(cr.last)),
+                };
+                let i = (slot * 2 + job.sense as usize) * (m * m) as usize + local as usize;
+                next[i] = (Vec4::from(next[i]) + (arriving * job.weight).extend(0.0)).into();
+            }
+        }
+    }
+}
+
+/// Index into the crossing arrays of the crossing of `face` by the ray nearest to PSF point
+/// `(a, b)` among the 3×3 cells around it, if any.
+pub fn nearest_crossing(
+    grid: &PsfGrid,
+    lists: &CellLists,
+    a: f32,
+    b: f32,
+    face: u32,
+) -> Option<usize> {
+    let n = grid.n as i64;
+    let nf = grid.n as f32;
+    let (cx, cy) = ((a + 1.0) * 0.5 * nf, (b + 1.0) * 0.5 * nf);
+    let (ci, cj) = (cx.floor() as i64, cy.floor() as i64);
+    let mut best: Option<(f32, usize)> = None;
+    for dj in -1..=1i64 {
+        for di in -1..=1i64 {
+            let (i, j) = (ci + di, cj + dj);
+            if i < 0 || j < 0 || i >= n || j >= n {
+                continue;
+            }
+            let c = (j * n + i) as usize;
+            if let Some(e) = lists.cell(c).iter().position(|e| e.1 == face) {
+                let d2 = (i as f32 + 0.5 - cx).powi(2) + (j as f32 + 0.5 - cy).powi(2);
+                if best.is_none_or(|b| d2 < b.0) {
+                    best = Some((d2, lists.start[c] as usize + e));
+                }
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Power carried by tile radiance (Σ L × cell area × ΔΩ), summed over channels.
+pub fn tile_power(
+    index: &tiles::TileIndex,
+    values: &[[f32; 4]],
+    set: &DirectionSet,
+    grid: &PsfGrid,
+) -> f64 {
+    let m2 = (index.m * index.m) as usize;
+    let a = f64::from(grid.cell_size() * grid.cell_size());
+    let mut p = 0f64;
+    for k in 0..index.index_start.len() - 1 {
+        let j = k % index.directions as usize;
+        let omega = f64::from(set.solid_angle(j as u32));
+        for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
+            for v in &values[slot * 2 * m2..(slot + 1) * 2 * m2] {
+                p += sum3(Vec4::from(*v).truncate()) * a * omega;
+            }
+        }
+    }
+    p
 }
 
 /// Step 4 result for one texel and one direction.
@@ -524,6 +684,7 @@ pub struct IterationEnergy {
 /// incoming radiance L then gives irradiance exactly πL: furnace-exact).
 pub fn finish_iteration(
     scene: &BakeScene,
+    tex_face: &[u32],
     acc: &[TexelAccum],
     unshot: &[[f32; 4]],
     sky: Vec3,
@@ -545,17 +706,21 @@ pub fn finish_iteration(
         let irr = e_surf + e_inj;
         let rho = Vec4::from(scene.albedo[t]).truncate();
         let b = rho * irr;
+        // The specular part leaves through the tiles (their power is counted from the tiles).
+        let spec = Vec4::from(scene.specular[tex_face[t] as usize]).truncate() * irr;
         next[t] = (b / std::f32::consts::PI).extend(0.0).into();
         e.received += sum3(e_surf) * area;
         e.injected += sum3(e_inj) * area;
-        e.absorbed += sum3(irr - b) * area;
+        e.absorbed += sum3(irr - b - spec) * area;
         e.next += sum3(b) * area;
         e.escaped += sum3(u) * f64::from(a.open.w * k) * area;
     }
     e
 }
 
-/// Gathers one direction into the accumulators (steps 1–4).
+/// Gathers one direction into the accumulators (steps 1–4) and, with non-diffuse faces, runs
+/// the reflect step into `next_tiles`. Returns the specular power escaping in this direction.
+#[allow(clippy::too_many_arguments)]
 pub fn gather_direction(
     scene: &BakeScene,
     grid: &PsfGrid,
@@ -563,9 +728,16 @@ pub fn gather_direction(
     unshot: &[[f32; 4]],
     tex_face: &[u32],
     acc: &mut [TexelAccum],
-) {
+    spec: Option<SpecularStep>,
+    sky: Vec3,
+) -> f64 {
     let lists = build_cell_lists(scene, grid, &dir.frame);
-    let iface = interface(scene, grid, &dir.frame, &lists, unshot);
+    let (iface, escaped) = interface(scene, grid, dir, &lists, unshot, spec.as_ref().map(|s| s.0));
+    if let Some((sp, jobs, next_tiles)) = spec {
+        reflect(
+            scene, grid, dir, &lists, &iface, sp.index, sp.frames, jobs, sky, next_tiles,
+        );
+    }
     for (t, &face) in tex_face.iter().enumerate() {
         let f = &scene.faces[face as usize];
         let local = t as u32 - f.texel_base;
@@ -591,26 +763,68 @@ pub fn gather_direction(
             }
         }
     }
+    escaped
+}
+
+/// Transport directions followed by one per sun (the order reflect jobs are indexed in).
+pub fn all_directions(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+) -> (Vec<TransportDir>, usize) {
+    let mut dirs = transport_directions(set, params);
+    let quadrature = dirs.len();
+    dirs.extend(scene.suns.iter().map(|&(d, e)| TransportDir {
+        frame: PsfFrame::new(d),
+        weight: 1.0,
+        sun: Some(e),
+    }));
+    (dirs, quadrature)
+}
+
+/// Non-diffuse state shared by the CPU and GPU propagators.
+pub struct SpecularSetup {
+    pub index: tiles::TileIndex,
+    pub frames: Vec<PsfFrame>,
+    /// Per transport direction (same order as [`all_directions`]).
+    pub jobs: Vec<Vec<tiles::ReflectJob>>,
+}
+
+impl SpecularSetup {
+    /// `None` when the scene has no mirror or mixed face.
+    pub fn new(
+        scene: &BakeScene,
+        set: &DirectionSet,
+        grid: &PsfGrid,
+        dirs: &[TransportDir],
+    ) -> Option<Self> {
+        if scene.faces.iter().all(|f| f.kind == FACE_DIFFUSE) {
+            return None;
+        }
+        let index = tiles::TileIndex::new(scene, set, grid);
+        let jobs = tiles::reflect_jobs(scene, set, dirs, &index);
+        Some(Self {
+            index,
+            frames: tiles::fixed_frames(set),
+            jobs,
+        })
+    }
 }
 
 /// Runs the whole propagation on the CPU.
 pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> Propagated {
     let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
-    let dirs = transport_directions(set, params);
-    let suns: Vec<TransportDir> = scene
-        .suns
-        .iter()
-        .map(|&(d, e)| TransportDir {
-            frame: PsfFrame::new(d),
-            weight: 1.0,
-            sun: Some(e),
-        })
-        .collect();
+    let (dirs, quadrature) = all_directions(scene, set, params);
+    let spec = SpecularSetup::new(scene, set, &grid, &dirs);
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
     let mut unshot = scene.emission.clone();
     let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
+    let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
+    let mut unshot_tiles = vec![[0f32; 4]; tile_len];
+    let mut next_tiles = vec![[0f32; 4]; tile_len];
+    let mut total_tiles = vec![[0f32; 4]; tile_len];
     let mut energy = EnergyStats {
         emitted: power(&scene.emission, &scene.texel_area),
         ..Default::default()
@@ -622,13 +836,42 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
     let mut iterations = 0;
     for it in 0..max_iter {
         let first = it == 0;
-        let mut acc = vec![TexelAccum::default(); n_tex];
-        let active = dirs.iter().chain(suns.iter().filter(|_| first));
-        for dir in active {
-            gather_direction(scene, &grid, dir, &unshot, &tex_face, &mut acc);
-        }
         let sky = if first { params.sky } else { Vec3::ZERO };
-        let e = finish_iteration(scene, &acc, &unshot, sky, &mut next);
+        let mut acc = vec![TexelAccum::default(); n_tex];
+        next_tiles.fill([0.0; 4]);
+        let mut spec_escaped = 0f64;
+        for (di, dir) in dirs.iter().enumerate() {
+            if di >= quadrature && !first {
+                break; // suns shine in the first iteration only
+            }
+            let sp = spec.as_ref().map(|s| {
+                (
+                    Specular {
+                        index: &s.index,
+                        set,
+                        frames: &s.frames,
+                        unshot: &unshot_tiles,
+                    },
+                    s.jobs[di].as_slice(),
+                )
+            });
+            spec_escaped += gather_direction(
+                scene,
+                &grid,
+                dir,
+                &unshot,
+                &tex_face,
+                &mut acc,
+                sp.as_ref().map(|(s, j)| (s, *j, next_tiles.as_mut_slice())),
+                sky,
+            );
+        }
+        let mut e = finish_iteration(scene, &tex_face, &acc, &unshot, sky, &mut next);
+        if let Some(s) = &spec {
+            e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
+            e.next += tile_power(&s.index, &next_tiles, set, &grid);
+            e.escaped += spec_escaped;
+        }
         log::debug!(
             "iteration {it}: sent {:.5} received {:.5} escaped {:.5} injected {:.5} next {:.5}; sent − received − escaped = {:.3}%",
             e.sent,
@@ -646,7 +889,11 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         for (t, n) in total.iter_mut().zip(&next) {
             *t = (Vec4::from(*t) + Vec4::from(*n)).into();
         }
+        for (t, n) in total_tiles.iter_mut().zip(&next_tiles) {
+            *t = (Vec4::from(*t) + Vec4::from(*n)).into();
+        }
         std::mem::swap(&mut unshot, &mut next);
+        std::mem::swap(&mut unshot_tiles, &mut next_tiles);
         iterations = it + 1;
         let src = energy.emitted + energy.injected;
         if threshold > 0.0 && (src <= 0.0 || e.next <= f64::from(threshold) * src) {
@@ -655,6 +902,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
     }
     Propagated {
         radiance: total,
+        tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,
         energy,
     }

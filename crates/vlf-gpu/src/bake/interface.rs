@@ -1,4 +1,4 @@
-//! Bake pass `Interface` (`shaders/bake_interface.wgsl`). Group 1 bindings, in order: faces (r), unshot (r), cell_count (r), cells (r), crossings (rw).
+//! Bake pass `Interface` (`shaders/bake_interface.wgsl`). Group 1 bindings, in order: faces (r), unshot texels+tiles (r), cell_count (r), cells (r), crossings (rw), tile_index (r), frames (r), spec_escape (rw).
 
 use super::common;
 
@@ -9,7 +9,7 @@ pub struct InterfacePass {
 
 impl InterfacePass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let entries: Vec<_> = [true, true, true, true, false]
+        let entries: Vec<_> = [true, true, true, true, false, true, true, false]
             .iter()
             .enumerate()
             .map(|(i, &ro)| common::storage(i as u32, ro))

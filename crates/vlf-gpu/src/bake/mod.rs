@@ -2,7 +2,7 @@
 //! every transport direction (cell lists, interface, gather) as compute passes.
 //!
 //! Pass order per direction (the one place it is written down): [`cells`] → [`interface`] →
-//! [`gather`]. Per iteration: upload the unshot radiance, clear the accumulators, run every
+//! [`gather`] → [`reflect`] (scenes with mirror/mixed faces only). Per iteration: upload the unshot radiance, clear the accumulators, run every
 //! direction, read the accumulators back and finish the iteration on the CPU with
 //! `reference::finish_iteration` (a few flops per texel, shared code, f64 energy sums).
 //! Triangle binning into tiles is done once on the CPU (`reference::bin_triangles`) and uploaded.
@@ -11,18 +11,20 @@ mod cells;
 mod common;
 mod gather;
 mod interface;
+mod reflect;
 
 use glam::Vec4;
 use vlf_core::bake::reference::{
-    self, EnergyStats, Propagated, TexelAccum, TransportDir, bin_triangles, project,
+    self, EnergyStats, Propagated, SpecularSetup, TexelAccum, TransportDir, bin_triangles, project,
 };
+use vlf_core::bake::tiles;
 use vlf_core::bake::{BakeParams, BakeScene, Iterations};
 use vlf_core::directions::DirectionSet;
-use vlf_core::psf::{PsfFrame, PsfGrid};
+use vlf_core::psf::PsfGrid;
 use wgpu::util::DeviceExt;
 
 use crate::GpuContext;
-use crate::layout::{self, BakeDirection, CellEntry, Crossing};
+use crate::layout::{self, BakeDirection, CellEntry, Crossing, ReflectItem};
 use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
 
@@ -112,6 +114,58 @@ fn empty(ctx: &GpuContext, label: &str, bytes: u64, usage: wgpu::BufferUsages) -
     })
 }
 
+/// The non-diffuse data in GPU-ready form.
+struct TileData {
+    /// face_slot ++ index_start ++ tile_ids ++ coverage.
+    packed: Vec<u32>,
+    offsets: [u32; 4],
+    frames: Vec<[f32; 4]>,
+    items: Vec<ReflectItem>,
+    /// Per transport direction: (first item, count).
+    item_ranges: Vec<(u32, u32)>,
+}
+
+fn tile_data(spec: &SpecularSetup) -> TileData {
+    let ix = &spec.index;
+    let mut packed = Vec::new();
+    let mut offsets = [0u32; 4];
+    for (k, part) in [&ix.face_slot, &ix.index_start, &ix.tile_ids, &ix.coverage].into_iter().enumerate() {
+        offsets[k] = packed.len() as u32;
+        packed.extend_from_slice(part);
+    }
+    let frames = spec
+        .frames
+        .iter()
+        .flat_map(|f| [f.u, f.v, f.w].map(|a| a.extend(0.0).to_array()))
+        .collect();
+    let mut items = Vec::new();
+    let mut item_ranges = Vec::with_capacity(spec.jobs.len());
+    for jobs in &spec.jobs {
+        let first = items.len() as u32;
+        for job in jobs {
+            let mf = ix.face_slot[job.face as usize] as usize;
+            let k = mf * ix.directions as usize + job.j as usize;
+            for slot in ix.index_start[k]..ix.index_start[k + 1] {
+                items.push(ReflectItem {
+                    weight: job.weight.extend(0.0).to_array(),
+                    slot,
+                    face: job.face,
+                    j: job.j,
+                    senses: job.incoming_sense | (job.sense << 1),
+                });
+            }
+        }
+        item_ranges.push((first, items.len() as u32 - first));
+    }
+    TileData {
+        packed,
+        offsets,
+        frames,
+        items,
+        item_ranges,
+    }
+}
+
 /// Runs the propagation on the GPU. Same inputs and outputs as `reference::propagate`.
 pub fn propagate(
     ctx: &GpuContext,
@@ -123,13 +177,10 @@ pub fn propagate(
     let device = &ctx.device;
     let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
     let n = params.resolution;
-    let mut dirs = reference::transport_directions(set, params);
-    let quadrature = dirs.len();
-    dirs.extend(scene.suns.iter().map(|&(d, e)| TransportDir {
-        frame: PsfFrame::new(d),
-        weight: 1.0,
-        sun: Some(e),
-    }));
+    let (dirs, quadrature) = reference::all_directions(scene, set, params);
+    let spec = SpecularSetup::new(scene, set, &grid, &dirs);
+    let tdata = spec.as_ref().map(tile_data);
+    let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
     let binned = bin_all(scene, &grid, &dirs);
     let k_max = binned.k_max.min(MAX_CROSSINGS);
     let cells_n = u64::from(n) * u64::from(n);
@@ -137,6 +188,10 @@ pub fn propagate(
     check_size(ctx, "the tile bins", binned.tris.len() as u64 * 4)?;
     let n_tex = scene.texel_count();
     check_size(ctx, "the texel accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64)?;
+    check_size(ctx, "the unshot radiance (texels and mirror tiles)", (n_tex + tile_len) as u64 * 16)?;
+    if let Some(t) = &tdata {
+        check_size(ctx, "the reflect items", t.items.len() as u64 * size_of::<ReflectItem>() as u64)?;
+    }
 
     // Geometry and atlas (uploaded once).
     let triangles = buffer(ctx, "Bake::triangles", &scene.triangles, wgpu::BufferUsages::empty());
@@ -159,37 +214,78 @@ pub fn propagate(
     let active = buffer(ctx, "Bake::active_texels", &active_list, wgpu::BufferUsages::empty());
     let bin_start = buffer(ctx, "Bake::bin_start", &binned.start, wgpu::BufferUsages::empty());
     let bin_tris = buffer(ctx, "Bake::bin_tris", &binned.tris, wgpu::BufferUsages::empty());
-    let unshot = buffer(ctx, "Bake::unshot", &scene.emission, wgpu::BufferUsages::COPY_DST);
+    let mut unshot_init = scene.emission.clone();
+    unshot_init.resize(n_tex + tile_len, [0.0; 4]);
+    let unshot = buffer(ctx, "Bake::unshot", &unshot_init, wgpu::BufferUsages::COPY_DST);
+    let none_u32: Vec<u32> = Vec::new();
+    let none_v4: Vec<[f32; 4]> = Vec::new();
+    let none_items: Vec<ReflectItem> = Vec::new();
+    let tile_index = buffer(ctx, "Bake::tile_index", tdata.as_ref().map_or(&none_u32, |t| &t.packed), wgpu::BufferUsages::empty());
+    let frames = buffer(ctx, "Bake::frames", tdata.as_ref().map_or(&none_v4, |t| &t.frames), wgpu::BufferUsages::empty());
+    let items = buffer(ctx, "Bake::reflect_items", tdata.as_ref().map_or(&none_items, |t| &t.items), wgpu::BufferUsages::empty());
+    let next_tiles = empty(ctx, "Bake::next_tiles", tile_len as u64 * 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+    let spec_escape = empty(ctx, "Bake::spec_escape", cells_n * 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
     let cell_count = empty(ctx, "Bake::cell_count", cells_n * 4, wgpu::BufferUsages::empty());
     let cells = empty(ctx, "Bake::cells", cells_n * u64::from(k_max) * size_of::<CellEntry>() as u64, wgpu::BufferUsages::empty());
     let crossings = empty(ctx, "Bake::crossings", cells_n * u64::from(k_max) * size_of::<Crossing>() as u64, wgpu::BufferUsages::empty());
     let acc = empty(ctx, "Bake::accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
     let overflow = buffer(ctx, "Bake::overflow", &[0u32; 4], wgpu::BufferUsages::COPY_SRC);
 
-    // Per-direction globals at a 256-byte stride.
-    let mut uniform_bytes = vec![0u8; dirs.len() * DIR_STRIDE as usize];
-    for (i, d) in dirs.iter().enumerate() {
-        let g = BakeDirection {
-            u: d.frame.u.extend(0.0).into(),
-            v: d.frame.v.extend(0.0).into(),
-            w: d.frame.w.extend(0.0).into(),
-            sun: d.sun.unwrap_or_default().extend(0.0).into(),
-            weight: d.weight,
-            n,
-            tile: params.tile,
-            k_max,
-            bin_base: binned.base[i],
-            tiles_per_side: grid.tiles_per_side(),
-            active_texels: active_list.len() as u32,
-            is_sun: u32::from(d.sun.is_some()),
-        };
-        let at = i * DIR_STRIDE as usize;
-        uniform_bytes[at..at + size_of::<BakeDirection>()].copy_from_slice(bytemuck::bytes_of(&g));
-    }
+    // Per-direction globals at a 256-byte stride (rewritten per iteration: the sky enters in
+    // the first one only).
+    let m = params.tile;
+    let uniforms = |sky: glam::Vec3| {
+        let mut bytes = vec![0u8; dirs.len() * DIR_STRIDE as usize];
+        for (i, d) in dirs.iter().enumerate() {
+            let lk = |t: glam::Vec3| {
+                let l = set.lookup(t);
+                ([l.vertices[0], l.vertices[1], l.vertices[2], 0], [l.weights[0], l.weights[1], l.weights[2], 0.0])
+            };
+            let (pv, pw) = lk(d.frame.w);
+            let (mv, mw) = lk(-d.frame.w);
+            let (items_base, items_count) = tdata.as_ref().map_or((0, 0), |t| t.item_ranges[i]);
+            let off = tdata.as_ref().map_or([0; 4], |t| t.offsets);
+            let g = BakeDirection {
+                u: d.frame.u.extend(0.0).into(),
+                v: d.frame.v.extend(0.0).into(),
+                w: d.frame.w.extend(0.0).into(),
+                sun: d.sun.unwrap_or_default().extend(0.0).into(),
+                weight: d.weight,
+                n,
+                tile: params.tile,
+                k_max,
+                bin_base: binned.base[i],
+                tiles_per_side: grid.tiles_per_side(),
+                active_texels: active_list.len() as u32,
+                is_sun: u32::from(d.sun.is_some()),
+                spec_plus_v: pv,
+                spec_plus_w: pw,
+                spec_minus_v: mv,
+                spec_minus_w: mw,
+                sky: sky.extend(0.0).into(),
+                tiles_l: set.len() as u32,
+                tile_m: m,
+                words_per_slot: tiles::words_per_slot(m) as u32,
+                face_slot_off: off[0],
+                index_start_off: off[1],
+                tile_ids_off: off[2],
+                coverage_off: off[3],
+                tile_values_off: n_tex as u32,
+                items_base,
+                items_count,
+                has_tiles: u32::from(tdata.is_some()),
+                _pad: 0,
+            };
+            let at = i * DIR_STRIDE as usize;
+            bytes[at..at + size_of::<BakeDirection>()].copy_from_slice(bytemuck::bytes_of(&g));
+        }
+        bytes
+    };
+    let uniform_bytes = uniforms(params.sky);
     let dir_uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("Bake::directions"),
         contents: &uniform_bytes,
-        usage: wgpu::BufferUsages::UNIFORM,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     });
     let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("Bake::globals_layout"),
@@ -219,8 +315,16 @@ pub fn propagate(
     let cells_pass = cells::CellsPass::new(device, &globals_layout);
     let interface_pass = interface::InterfacePass::new(device, &globals_layout);
     let gather_pass = gather::GatherPass::new(device, &globals_layout);
+    let reflect_pass = reflect::ReflectPass::new(device, &globals_layout);
     let cells_bg = cells_pass.bind_group(device, &[&triangles, &bin_start, &bin_tris, &cell_count, &cells, &overflow]);
-    let interface_bg = interface_pass.bind_group(device, &[&faces, &unshot, &cell_count, &cells, &crossings]);
+    let interface_bg = interface_pass.bind_group(
+        device,
+        &[&faces, &unshot, &cell_count, &cells, &crossings, &tile_index, &frames, &spec_escape],
+    );
+    let reflect_bg = reflect_pass.bind_group(
+        device,
+        &[&faces, &cell_count, &cells, &crossings, &tile_index, &frames, &items, &next_tiles],
+    );
     let gather_bg = gather_pass.bind_group(device, &[&faces, &active, &texel_center, &cell_count, &cells, &crossings, &acc]);
 
     let max_dim = device.limits().max_compute_workgroups_per_dimension;
@@ -228,6 +332,8 @@ pub fn propagate(
     let texel_groups = dispatch_2d(active_list.len() as u32, 64, max_dim);
 
     let mut unshot_host = scene.emission.clone();
+    let mut unshot_tiles = vec![[0f32; 4]; tile_len];
+    let mut total_tiles = vec![[0f32; 4]; tile_len];
     let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
     let mut energy = EnergyStats {
@@ -242,8 +348,16 @@ pub fn propagate(
     for it in 0..max_iter {
         let first = it == 0;
         ctx.queue.write_buffer(&unshot, 0, bytemuck::cast_slice(&unshot_host));
+        if tile_len > 0 {
+            ctx.queue.write_buffer(&unshot, n_tex as u64 * 16, bytemuck::cast_slice(&unshot_tiles));
+        }
+        if it == 1 {
+            ctx.queue.write_buffer(&dir_uniforms, 0, &uniforms(glam::Vec3::ZERO));
+        }
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("Bake::clear") });
         encoder.clear_buffer(&acc, 0, None);
+        encoder.clear_buffer(&next_tiles, 0, None);
+        encoder.clear_buffer(&spec_escape, 0, None);
         ctx.queue.submit(Some(encoder.finish()));
         let active_dirs: Vec<usize> = (0..dirs.len()).filter(|&i| i < quadrature || first).collect();
         for (chunk_i, chunk) in active_dirs.chunks(DIRS_PER_SUBMIT).enumerate() {
@@ -266,6 +380,13 @@ pub fn propagate(
                         pass.set_pipeline(&gather_pass.pipeline);
                         pass.set_bind_group(1, &gather_bg, &[]);
                         pass.dispatch_workgroups(texel_groups.0, texel_groups.1, 1);
+                    }
+                    let count = tdata.as_ref().map_or(0, |t| t.item_ranges[d].1);
+                    if count > 0 {
+                        let g = dispatch_2d(count * m * m, 64, max_dim);
+                        pass.set_pipeline(&reflect_pass.pipeline);
+                        pass.set_bind_group(1, &reflect_bg, &[]);
+                        pass.dispatch_workgroups(g.0, g.1, 1);
                     }
                 }
             }
@@ -292,7 +413,20 @@ pub fn propagate(
             })
             .collect();
         let sky = if first { params.sky } else { glam::Vec3::ZERO };
-        let e = reference::finish_iteration(scene, &acc_host, &unshot_host, sky, &mut next);
+        let mut e = reference::finish_iteration(scene, &tex_face, &acc_host, &unshot_host, sky, &mut next);
+        if let Some(sp) = &spec {
+            let mut next_tiles_host: Vec<[f32; 4]> =
+                read_buffer(device, &ctx.queue, &next_tiles).map_err(|_| GpuBakeError::Readback)?;
+            next_tiles_host.truncate(tile_len);
+            let esc: Vec<[f32; 4]> = read_buffer(device, &ctx.queue, &spec_escape).map_err(|_| GpuBakeError::Readback)?;
+            e.escaped += esc.iter().map(|v| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2])).sum::<f64>();
+            e.sent += reference::tile_power(&sp.index, &unshot_tiles, set, &grid);
+            e.next += reference::tile_power(&sp.index, &next_tiles_host, set, &grid);
+            for (t, nx) in total_tiles.iter_mut().zip(&next_tiles_host) {
+                *t = (Vec4::from(*t) + Vec4::from(*nx)).into();
+            }
+            unshot_tiles = next_tiles_host;
+        }
         log::debug!("GPU iteration {it}: sent {:.5} received {:.5} escaped {:.5} next {:.5}", e.sent, e.received, e.escaped, e.next);
         energy.injected += e.injected;
         energy.absorbed += e.absorbed;
@@ -311,6 +445,7 @@ pub fn propagate(
     }
     Ok(Propagated {
         radiance: total,
+        tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,
         energy,
     })
