@@ -8,12 +8,12 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum SceneError {
     /// The scene file itself cannot be read (missing, a directory, no permission…).
-    #[error("cannot read scene file ({source}): {path}")]
+    #[error("cannot read scene file ({cause}): {path}")]
     Io {
         /// Scene file.
         path: PathBuf,
-        /// Underlying I/O error.
-        source: std::io::Error,
+        /// Underlying I/O error (in the message, not chained: the message already names it).
+        cause: std::io::Error,
     },
 
     /// The binary glTF container is malformed.

@@ -201,7 +201,7 @@ struct Importer<'a> {
 pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
-        source,
+        cause: source,
     })?;
     let (json_bytes, bin) = if bytes.starts_with(b"glTF") {
         split_glb(&bytes).map_err(|reason| SceneError::Glb {
