@@ -69,17 +69,46 @@ pub fn demo(root: &Path) -> Result<()> {
     let scene = root.join("assets/cornell-box/cornell-box.gltf");
     let bake = |args: &[&str]| {
         let mut c = cargo(root);
-        c.args(["run", "--quiet", "-p", "vlf-bake", "--"]).args(args);
+        c.args(["run", "--quiet", "-p", "vlf-bake", "--"])
+            .args(args);
         c
     };
     step(
         "load the default scene",
         bake(&["inspect", scene.to_str().context("non-UTF-8 path")?]).arg("-v"),
     )?;
-    step("open the GPU and run the compute self-test", &mut bake(&["selftest"]))?;
+    step(
+        "open the GPU and run the compute self-test",
+        &mut bake(&["selftest"]),
+    )?;
     eprintln!(
         "demo: scene import and the GPU device work. Not built yet: light propagation \
          (issue 4), the .vlf file (issue 6) and rendering a still (issue 7), so no image is written."
     );
+    Ok(())
+}
+
+/// Bake benchmarks in a release build; the CSV lands in docs/bench/ with the adapter in it.
+pub fn bench(root: &Path, quick: bool) -> Result<()> {
+    let dir = root.join("docs/bench");
+    std::fs::create_dir_all(&dir)?;
+    let out = dir.join(if quick { "bake-quick.csv" } else { "bake.csv" });
+    let mut c = cargo(root);
+    c.args([
+        "run",
+        "--release",
+        "-p",
+        "vlf-gpu",
+        "--example",
+        "bake_bench",
+        "--",
+    ])
+    .arg("--out")
+    .arg(&out);
+    if quick {
+        c.arg("--quick");
+    }
+    step("bake benchmark", &mut c)?;
+    eprintln!("wrote {}", out.display());
     Ok(())
 }

@@ -14,6 +14,7 @@ const USAGE: &str = "usage: cargo xtask <task>
 tasks:
   ci            the whole test suite: rustfmt, clippy, all tests, asset checks (what .ci/run runs)
   demo          the main job on the bundled Cornell box
+  bench [--quick]  bake benchmarks (release build) → docs/bench/bake.csv
   assets        regenerate the Cornell box scenes under assets/
   check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
   validate-gltf FILE...  run Khronos glTF-Validator on the given files";
@@ -48,6 +49,7 @@ fn main() -> Result<()> {
         }
         Some("ci") => ci::ci(&root)?,
         Some("demo") => ci::demo(&root)?,
+        Some("bench") => ci::bench(&root, std::env::args().any(|a| a == "--quick"))?,
         Some("-h" | "--help" | "help") => println!("{USAGE}"),
         _ => bail!("{USAGE}"),
     }

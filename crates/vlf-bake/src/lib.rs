@@ -1,6 +1,7 @@
 //! The `vlf-bake` command-line tool as a library: `main.rs` only parses arguments and calls
 //! [`run`]. Progress output belongs here (binary side), never in `vlf-core`/`vlf-gpu`.
 
+pub mod bake;
 pub mod cli;
 
 use anyhow::Context as _;
@@ -25,7 +26,11 @@ impl From<ExitCode> for std::process::ExitCode {
 /// Maps an error chain to the exit code of its root kind.
 pub fn exit_code(err: &anyhow::Error) -> ExitCode {
     for cause in err.chain() {
-        if cause.is::<vlf_core::scene::SceneError>() {
+        if cause.is::<vlf_core::scene::SceneError>()
+            || cause.is::<vlf_core::format::FormatError>()
+            || cause.is::<vlf_core::bake::ParamsError>()
+            || cause.is::<vlf_core::image::ImageError>()
+        {
             return ExitCode::BadInput;
         }
         if cause.is::<vlf_gpu::DeviceError>() {
@@ -50,9 +55,57 @@ pub fn init_logging(verbose: u8, quiet: bool) {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Bake {
+            scene,
+            output,
+            params,
+            json,
+        } => bake::bake_command(&scene, &output, &params, cli.device, json, cli.quiet),
+        Command::Info { file, json } => info(&file, json),
+        Command::Compare {
+            test,
+            reference,
+            json,
+            diff,
+        } => compare(&test, &reference, json, diff.as_deref()),
         Command::Inspect { scene, json } => inspect(&scene, json),
         Command::Selftest { json } => selftest(cli.device, json),
     }
+}
+
+fn compare(test: &Path, reference: &Path, json: bool, diff: Option<&Path>) -> anyhow::Result<()> {
+    use vlf_core::image;
+    let t = image::read_exr(test)?;
+    let r = image::read_exr(reference)?;
+    let (report, flip) = image::compare_images(&t, &r, test, reference)?;
+    if let Some(path) = diff {
+        image::error_map_png(path, &flip.map, t.width, t.height)?;
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!(
+            "{} vs {} ({}×{}): MSE {:.4e}, relMSE {:.4e}, mean FLIP {:.4}",
+            test.display(),
+            reference.display(),
+            report.width,
+            report.height,
+            report.mse,
+            report.rel_mse,
+            report.flip_mean
+        );
+    }
+    Ok(())
+}
+
+fn info(path: &Path, json: bool) -> anyhow::Result<()> {
+    let info = vlf_core::format::describe(path)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&info)?);
+    } else {
+        println!("{info}");
+    }
+    Ok(())
 }
 
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
@@ -125,7 +178,10 @@ fn selftest(device: DeviceArg, json: bool) -> anyhow::Result<()> {
         );
     } else {
         println!("adapter: {}", ctx.summary);
-        println!("compute self-test: {} elements, {bad} mismatches, {ms:.1} ms", xs.len());
+        println!(
+            "compute self-test: {} elements, {bad} mismatches, {ms:.1} ms",
+            xs.len()
+        );
     }
     anyhow::ensure!(bad == 0, "compute self-test failed: {bad} wrong elements");
     Ok(())

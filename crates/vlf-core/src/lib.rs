@@ -1,5 +1,6 @@
 pub mod bake;
 pub mod directions;
+pub mod format;
 pub mod image;
 pub mod lightfield;
 pub mod psf;

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bake::reference::EnergyStats;
+use crate::bake::tiles::TileIndex;
 use crate::bake::{BakeFace, BakeParams, BakeTriangle};
 use crate::directions::DirectionSet;
 use crate::scene::{Camera, SceneSummary, Similarity};
@@ -59,12 +60,27 @@ pub struct LightField {
     /// Total outgoing radiance per atlas texel (rgb, a unused), emission included; both sides
     /// of every face (see [`BakeFace::texel_base`]).
     pub radiance: Vec<[f32; 4]>,
+    /// Sparse per-direction tiles of the mirror and mixed faces (specular part of their
+    /// outgoing radiance); `None` for diffuse-only scenes.
+    pub tiles: Option<MirrorTiles>,
     pub stats: BakeStats,
 }
 
+/// Specular outgoing radiance of non-diffuse faces (see `bake::tiles` for the layout).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MirrorTiles {
+    pub index: TileIndex,
+    /// Total outgoing radiance per tile value (rgb, a unused): `index.value_len()` entries.
+    pub radiance: Vec<[f32; 4]>,
+}
+
 impl LightField {
-    /// Bytes of the radiance data in memory.
+    /// Bytes of the radiance data in memory (atlas and mirror tiles).
     pub fn radiance_bytes(&self) -> usize {
         std::mem::size_of_val(self.radiance.as_slice())
+            + self
+                .tiles
+                .as_ref()
+                .map_or(0, |t| std::mem::size_of_val(t.radiance.as_slice()))
     }
 }

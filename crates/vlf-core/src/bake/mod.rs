@@ -14,9 +14,8 @@ pub use params::{BakeParams, Iterations, ParamsError, Quality};
 pub use prep::{BakeFace, BakeScene, BakeTriangle};
 
 use crate::directions::DirectionSet;
-use crate::lightfield::{BakeStats, LightField};
+use crate::lightfield::{BakeStats, LightField, MirrorTiles};
 use crate::scene::Scene;
-use std::time::Instant;
 
 /// Errors of a bake.
 #[derive(Debug, thiserror::Error)]
@@ -35,9 +34,10 @@ pub fn assemble(
     prep: &BakeScene,
     params: &BakeParams,
     directions: DirectionSet,
-    mut radiance: Vec<[f32; 4]>,
+    propagated: reference::Propagated,
     stats: BakeStats,
 ) -> LightField {
+    let mut radiance = propagated.radiance;
     dilate(prep, &mut radiance);
     LightField {
         params: params.clone(),
@@ -48,37 +48,27 @@ pub fn assemble(
         triangles: prep.triangles.clone(),
         faces: prep.faces.clone(),
         radiance,
+        tiles: propagated
+            .tiles
+            .map(|(index, radiance)| MirrorTiles { index, radiance }),
         stats,
     }
 }
 
 /// Bakes on the CPU with the reference propagator.
 pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeError> {
-    let t0 = Instant::now();
     let prep = BakeScene::new(scene, params)?;
     let directions = DirectionSet::at_least(params.directions)?;
-    let t_prep = t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
     let out = reference::propagate(&prep, &directions, params);
+    // No timings in the stats: equal inputs must give bit-identical files.
     let mut stats = BakeStats {
         iterations: out.iterations,
         device: "cpu".into(),
         adapter: "CPU reference".into(),
-        phases: vec![
-            ("prepare".into(), t_prep),
-            ("propagate".into(), t1.elapsed().as_secs_f64()),
-        ],
         ..Default::default()
     };
     stats.set_energy(&out.energy);
-    Ok(assemble(
-        scene,
-        &prep,
-        params,
-        directions,
-        out.radiance,
-        stats,
-    ))
+    Ok(assemble(scene, &prep, params, directions, out, stats))
 }
 
 /// Fills every uncovered texel (area 0) of each chart side with the mean of its covered

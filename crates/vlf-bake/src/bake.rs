@@ -1,0 +1,282 @@
+//! `vlf-bake bake`: scene → light-field file.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use serde::Serialize;
+use vlf_core::bake::{self, BakeParams, BakeScene, Iterations, Quality};
+use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::BakeStats;
+
+use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg};
+use crate::{Compute, open_device};
+
+/// Parameters from the preset and the explicit options.
+pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
+    let q = match a.quality {
+        QualityArg::Draft => Quality::Draft,
+        QualityArg::Auto => Quality::Auto,
+        QualityArg::High => Quality::High,
+    };
+    let mut p = q.params();
+    if let Some(v) = a.directions {
+        p.directions = v;
+    }
+    if let Some(v) = a.resolution {
+        p.resolution = v;
+        // Keep the preset's tile if it divides the new resolution, else use the largest
+        // divisor ≤ the preset's tile.
+        if a.tile.is_none() && !v.is_multiple_of(p.tile) {
+            p.tile = (1..=p.tile)
+                .rev()
+                .find(|t| v.is_multiple_of(*t))
+                .unwrap_or(1);
+        }
+    }
+    if let Some(v) = a.tile {
+        p.tile = v;
+    }
+    match a.iterations {
+        Some(IterationsArg::Fixed(k)) => p.iterations = Iterations::Fixed(k),
+        Some(IterationsArg::Auto) | None => {
+            if let Iterations::Converge { max, .. } = p.iterations {
+                p.iterations = Iterations::Converge {
+                    threshold: a.threshold,
+                    max,
+                };
+            }
+        }
+    }
+    if let Some(v) = a.perturb {
+        p.perturb = v;
+    }
+    if let Some(v) = a.texel_scale {
+        p.texel_scale = v;
+    }
+    if let Some(s) = a.sky {
+        p.sky = glam::Vec3::from(s.0);
+    }
+    p.validate().context("bake parameters")?;
+    Ok(p)
+}
+
+/// What `--json` prints.
+#[derive(Serialize)]
+pub struct BakeReport {
+    pub scene: String,
+    pub output: String,
+    pub device: String,
+    pub adapter: String,
+    pub params: BakeParams,
+    pub directions: usize,
+    pub prepared: bake::prep::PrepSummary,
+    pub iterations: u32,
+    pub phases_s: Vec<(String, f64)>,
+    pub total_s: f64,
+    pub energy: EnergyReport,
+    pub memory: MemoryReport,
+    pub output_bytes: u64,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Serialize)]
+pub struct EnergyReport {
+    pub emitted: f64,
+    pub injected: f64,
+    pub absorbed: f64,
+    pub escaped: f64,
+    pub unshot: f64,
+    /// Unshot power / (emitted + injected) after the last iteration.
+    pub unshot_fraction: f64,
+    /// (emitted + injected − absorbed − escaped − unshot) / (emitted + injected).
+    pub imbalance: f64,
+}
+
+#[derive(Serialize)]
+pub struct MemoryReport {
+    /// Radiance during propagation: unshot, next and total maps (f32 RGBA) plus accumulators.
+    pub propagation_bytes: u64,
+    /// Radiance kept for rendering (total map, f32 in memory).
+    pub render_bytes: u64,
+    /// Of which the sparse mirror tiles (total map).
+    pub tile_bytes: u64,
+}
+
+/// Bakes one scene with an already opened device and writes the file atomically. `progress`
+/// receives (done, total) units of propagation work when the GPU reports it.
+pub fn bake_scene(
+    scene_path: &Path,
+    output: &Path,
+    params: &BakeParams,
+    compute: &Compute,
+    progress: &mut dyn FnMut(u64, u64, &str),
+) -> anyhow::Result<BakeReport> {
+    let t = Instant::now();
+    let scene = vlf_core::scene::load(scene_path)?;
+    vlf_core::scene::check_lighting(
+        &scene,
+        (params.sky != glam::Vec3::ZERO).then_some(params.sky),
+    )?;
+    let t_load = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let prep = BakeScene::new(&scene, params).context("preparing the scene")?;
+    let set = DirectionSet::at_least(params.directions).context("direction set")?;
+    let t_prep = t.elapsed().as_secs_f64();
+    for w in scene.warnings.iter().chain(&prep.warnings) {
+        log::warn!("{}: {w}", scene_path.display());
+    }
+
+    let t = Instant::now();
+    let (out, device_name, adapter) = match compute {
+        Compute::Gpu(ctx) => {
+            let out = vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut |p| {
+                let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
+                let total = u64::from(p.max_iterations) * p.directions as u64;
+                progress(done, total, &format!("iteration {}", p.iteration + 1));
+            })
+            .context("GPU propagation")?;
+            (out, "gpu", ctx.summary.to_string())
+        }
+        Compute::Cpu(_) => (
+            bake::reference::propagate(&prep, &set, params),
+            "cpu",
+            "CPU reference".to_string(),
+        ),
+    };
+    let t_prop = t.elapsed().as_secs_f64();
+
+    // Timings stay out of the file: the same scene, parameters and adapter must give a
+    // bit-identical file. They go to the report (--json) instead.
+    let mut stats = BakeStats {
+        iterations: out.iterations,
+        device: device_name.into(),
+        adapter: adapter.clone(),
+        ..Default::default()
+    };
+    stats.set_energy(&out.energy);
+    let t = Instant::now();
+    let iterations = out.iterations;
+    let energy = out.energy.clone();
+    let lf = bake::assemble(&scene, &prep, params, set.clone(), out, stats);
+    let bytes = vlf_core::format::write_atomic(output, &lf)?;
+    let t_write = t.elapsed().as_secs_f64();
+    let phases: Vec<(String, f64)> = [
+        ("load", t_load),
+        ("prepare", t_prep),
+        ("propagate", t_prop),
+        ("write", t_write),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
+    let total_s = phases.iter().map(|p| p.1).sum();
+    let src = energy.emitted + energy.injected;
+    let texels = prep.texel_count() as u64;
+    let tile_values = lf.tiles.as_ref().map_or(0, |t| t.radiance.len() as u64);
+    Ok(BakeReport {
+        scene: scene_path.display().to_string(),
+        output: output.display().to_string(),
+        device: device_name.into(),
+        adapter,
+        params: params.clone(),
+        directions: set.len(),
+        prepared: prep.summary(),
+        iterations,
+        phases_s: phases,
+        total_s,
+        energy: EnergyReport {
+            emitted: energy.emitted,
+            injected: energy.injected,
+            absorbed: energy.absorbed,
+            escaped: energy.escaped,
+            unshot: energy.unshot,
+            unshot_fraction: if src > 0.0 { energy.unshot / src } else { 0.0 },
+            imbalance: energy.relative_imbalance(),
+        },
+        memory: MemoryReport {
+            propagation_bytes: (texels + tile_values) * 3 * 16 + texels * 32,
+            render_bytes: (texels + tile_values) * 16,
+            tile_bytes: tile_values * 16,
+        },
+        output_bytes: bytes,
+        warnings: scene
+            .warnings
+            .iter()
+            .chain(&prep.warnings)
+            .cloned()
+            .collect(),
+    })
+}
+
+/// `vlf-bake bake`.
+pub fn bake_command(
+    scene_path: &Path,
+    output: &Path,
+    args: &BakeArgs,
+    device: DeviceArg,
+    json: bool,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let params = params_from_args(args)?;
+    let t = Instant::now();
+    let compute = open_device(device)?;
+    let t_device = t.elapsed().as_secs_f64();
+    if let (Compute::Cpu(why), false) = (&compute, quiet) {
+        eprintln!(
+            "warning: baking on the CPU reference path ({why}): single-threaded, much slower than a hardware GPU"
+        );
+    }
+    let bar = match &compute {
+        Compute::Gpu(ctx) if !quiet && !json => Some(progress_bar(&ctx.summary.to_string())),
+        _ => None,
+    };
+    let mut report = bake_scene(
+        scene_path,
+        output,
+        &params,
+        &compute,
+        &mut |done, total, msg| {
+            if let Some(bar) = &bar {
+                bar.set_length(total);
+                bar.set_position(done);
+                bar.set_message(msg.to_string());
+            }
+        },
+    )?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    report.phases_s.insert(0, ("device".into(), t_device));
+    report.total_s += t_device;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else if !quiet {
+        println!(
+            "baked {} → {} ({:.1} MB) in {:.2} s on {}: {} directions, {}² rays, {} iterations, unshot {:.2}% of the emitted power, energy imbalance {:+.3}%",
+            report.scene,
+            report.output,
+            report.output_bytes as f64 / 1e6,
+            report.total_s,
+            report.adapter,
+            report.directions,
+            params.resolution,
+            report.iterations,
+            100.0 * report.energy.unshot_fraction,
+            100.0 * report.energy.imbalance
+        );
+    }
+    Ok(())
+}
+
+fn progress_bar(adapter: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(1);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] {percent}% {msg} ETA {eta}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("propagating on {adapter}"));
+    bar
+}

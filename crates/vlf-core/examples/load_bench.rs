@@ -1,0 +1,252 @@
+//! Load benchmark of the `.vlf` reader: writes a synthetic light field of at least `--mb` MB
+//! (default 200) per radiance encoding to a temporary directory, then times, best of `--runs`
+//! (default 7) after a warm-up so that every read comes from the page cache:
+//!
+//! - `plain`: `std::fs::read` of the file (the floor for any reader),
+//! - `format::read` (header, checksums of every section, decoding to f32, validation),
+//! - `describe` (header and section table only),
+//! - `f32 fill`: allocating and writing the in-memory `Vec<[f32; 4]>` radiance alone, on as
+//!   many threads as `format::read` uses (the part of the cost set by the in-memory type).
+//!
+//! `cargo run --release -p vlf-core --example load_bench [-- --mb 200 --runs 7 --encoding all]`
+//! (`--encoding rgb16f | rgb9e5 | all`). Prints a table, then the figures as CSV.
+
+use std::path::Path;
+use std::time::Instant;
+
+use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle};
+use vlf_core::directions::DirectionSet;
+use vlf_core::format::{self, RadianceEncoding};
+use vlf_core::lightfield::{BakeStats, LightField};
+use vlf_core::scene::{SceneSummary, Similarity};
+
+fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// A light field of `faces` faces of `side × side` texels per side, with HDR radiance.
+fn synthetic(faces: u32, side: u32) -> LightField {
+    let mut fs = Vec::new();
+    let mut tris = Vec::new();
+    let mut base = 0u32;
+    for i in 0..faces {
+        let z = -0.9 + 1.8 * i as f32 / faces as f32;
+        fs.push(BakeFace {
+            normal: [0.0, 0.0, 1.0],
+            offset: z,
+            origin: [-0.5, -0.5, z],
+            texel_size: 1.0 / side as f32,
+            u: [1.0, 0.0, 0.0],
+            width: side,
+            v: [0.0, 1.0, 0.0],
+            height: side,
+            texel_base: base,
+            kind: 0,
+            specular: 0.0,
+            _pad: 0,
+        });
+        base += 2 * side * side;
+        for k in 0..2 {
+            tris.push(BakeTriangle {
+                p0: [-0.5, -0.5, z],
+                face: i,
+                p1: [0.5, -0.5 + k as f32, z],
+                _pad0: 0,
+                p2: [0.5 - k as f32, 0.5, z],
+                _pad1: 0,
+            });
+        }
+    }
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let radiance = (0..base)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let l = ((s >> 40) as f32 / (1u64 << 24) as f32 * 13.8 - 9.2).exp(); // 1e-4..1e2
+            [
+                l * (0.05 + (s & 0xff) as f32 / 270.0),
+                l,
+                l * (0.05 + ((s >> 8) & 0xff) as f32 / 270.0),
+                0.0,
+            ]
+        })
+        .collect();
+    LightField {
+        params: BakeParams::paper(),
+        directions: DirectionSet::at_least(512).expect("direction set"),
+        to_vlf: Similarity::IDENTITY,
+        scene: SceneSummary {
+            source: "synthetic".into(),
+            triangles: tris.len(),
+            faces: fs.len(),
+            materials: 1,
+            diffuse_materials: 1,
+            mirror_materials: 0,
+            mixed_materials: 0,
+            emissive_materials: 0,
+            emissive_faces: 0,
+            emissive_triangles: 0,
+            cameras: 0,
+            suns: 0,
+            textures: 0,
+            bounds_min: [-1.0; 3],
+            bounds_max: [1.0; 3],
+            warnings: 0,
+        },
+        cameras: vec![],
+        triangles: tris,
+        faces: fs,
+        radiance,
+        tiles: None,
+        stats: BakeStats::default(),
+    }
+}
+
+fn best<R>(runs: usize, mut f: impl FnMut() -> R) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..runs {
+        let t = Instant::now();
+        std::hint::black_box(f());
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    best
+}
+
+/// Allocates and fills `n` f32 RGBA texels on `threads` threads (what any reader producing
+/// the in-memory radiance must at least do).
+fn f32_fill(n: usize, threads: usize) -> usize {
+    let mut v = vec![[0f32; 4]; n];
+    let chunk = n.div_ceil(threads.max(1)).max(1);
+    std::thread::scope(|s| {
+        for (t, c) in v.chunks_mut(chunk).enumerate() {
+            s.spawn(move || {
+                for (i, x) in c.iter_mut().enumerate() {
+                    *x = [(t + i) as f32, 1.0, 2.0, 0.0];
+                }
+            });
+        }
+    });
+    v.len()
+}
+
+struct Row {
+    encoding: &'static str,
+    file_bytes: u64,
+    texels: usize,
+    plain: f64,
+    read: f64,
+    describe: f64,
+    fill: f64,
+}
+
+fn main() {
+    let mb: f64 = arg("--mb", 200.0);
+    let runs: usize = arg("--runs", 7usize).max(1);
+    let which: String = arg("--encoding", "all".to_string());
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(8);
+    let dir = std::env::temp_dir().join(format!("vlf-load-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut rows = Vec::new();
+    for enc in RadianceEncoding::ALL {
+        if which != "all" && which != enc.name() {
+            continue;
+        }
+        // Faces of 1024 × 1024 texels per side, enough for `mb` megabytes of radiance.
+        let side = 1024u32;
+        let per_face = 2 * (side as u64) * (side as u64) * enc.bytes_per_texel() as u64;
+        let faces = ((mb * 1e6) / per_face as f64).ceil().max(1.0) as u32;
+        let lf = synthetic(faces, side);
+        let path = dir.join(format!("bench-{}.vlf", enc.name()));
+        let t = Instant::now();
+        let bytes = format::write_atomic_with(&path, &lf, enc).expect("write");
+        let write_s = t.elapsed().as_secs_f64();
+        let texels = lf.radiance.len();
+        drop(lf);
+        eprintln!(
+            "{}: {:.1} MB, {texels} texels, written in {write_s:.2} s; timing best of {runs}…",
+            enc.name(),
+            bytes as f64 / 1e6
+        );
+        // Warm-up: both paths once, so that the file is in the page cache.
+        let plain_len = std::fs::read(&path).expect("read").len();
+        assert_eq!(plain_len as u64, bytes);
+        let back = format::read(&path).expect("format::read");
+        assert_eq!(back.radiance.len(), texels);
+        drop(back);
+        let plain = best(runs, || std::fs::read(&path).expect("read").len());
+        let read = best(runs, || {
+            format::read(&path).expect("format::read").radiance.len()
+        });
+        let describe = best(runs, || format::describe(&path).expect("describe").texels);
+        let fill = best(runs, || f32_fill(texels, threads));
+        std::fs::remove_file(&path).expect("remove");
+        rows.push(Row {
+            encoding: enc.name(),
+            file_bytes: bytes,
+            texels,
+            plain,
+            read,
+            describe,
+            fill,
+        });
+    }
+    let _ = std::fs::remove_dir(&dir);
+    let gbps = |bytes: u64, s: f64| bytes as f64 / s / 1e9;
+    println!("threads available: {threads}");
+    println!(
+        "{:<8} {:>10} {:>11} {:>18} {:>18} {:>7} {:>11} {:>11}",
+        "encoding",
+        "file MB",
+        "texels",
+        "plain read",
+        "format::read",
+        "ratio",
+        "describe",
+        "f32 fill"
+    );
+    for r in &rows {
+        println!(
+            "{:<8} {:>10.1} {:>11} {:>8.1} ms {:>4.2} GB/s {:>8.1} ms {:>4.2} GB/s {:>7.2} {:>8.3} ms {:>8.1} ms",
+            r.encoding,
+            r.file_bytes as f64 / 1e6,
+            r.texels,
+            r.plain * 1e3,
+            gbps(r.file_bytes, r.plain),
+            r.read * 1e3,
+            gbps(r.file_bytes, r.read),
+            r.read / r.plain,
+            r.describe * 1e3,
+            r.fill * 1e3
+        );
+    }
+    println!();
+    println!(
+        "encoding,file_bytes,texels,runs,threads,plain_read_s,plain_read_gb_per_s,format_read_s,format_read_gb_per_s,ratio,describe_s,f32_fill_s"
+    );
+    for r in &rows {
+        println!(
+            "{},{},{},{runs},{threads},{:.6},{:.3},{:.6},{:.3},{:.3},{:.6},{:.6}",
+            r.encoding,
+            r.file_bytes,
+            r.texels,
+            r.plain,
+            gbps(r.file_bytes, r.plain),
+            r.read,
+            gbps(r.file_bytes, r.read),
+            r.read / r.plain,
+            r.describe,
+            r.fill
+        );
+    }
+    if !Path::new(&dir).exists() {
+        eprintln!("temporary files removed");
+    }
+}

@@ -1,0 +1,254 @@
+//! `vlf-bake info`: a summary of a `.vlf` file from its header alone.
+
+use std::fmt;
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::disk::{self, FileHeader, Preamble};
+use super::encoding::RadianceEncoding;
+use crate::bake::{BakeParams, Iterations};
+use crate::lightfield::BakeStats;
+use crate::scene::{SceneSummary, Similarity};
+
+/// What [`super::describe`] reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct FileInfo {
+    pub path: String,
+    pub format_version: u32,
+    pub file_bytes: u64,
+    pub header_bytes: u64,
+    pub params: BakeParams,
+    /// Direction set: scheme id, frequency k, and l = 5k² + 1.
+    pub direction_scheme: u32,
+    pub direction_frequency: u32,
+    pub directions: u32,
+    pub transform: Similarity,
+    pub scene: SceneSummary,
+    /// Camera names (`"camera N"` for unnamed ones).
+    pub cameras: Vec<String>,
+    pub triangles: u64,
+    pub faces: u64,
+    pub texels: u64,
+    pub radiance_encoding: String,
+    pub sections: Vec<SectionInfo>,
+    pub memory: MemoryInfo,
+    pub stats: BakeStats,
+}
+
+/// One section of the file.
+#[derive(Clone, Debug, Serialize)]
+pub struct SectionInfo {
+    pub name: String,
+    pub kind: u32,
+    pub required: bool,
+    pub offset: u64,
+    pub count: u64,
+    pub element_bytes: u32,
+    /// Bytes in the file.
+    pub file_bytes: u64,
+    /// Bytes once loaded in memory (f32 radiance as RGBA), `None` for sections unknown to
+    /// this build.
+    pub memory_bytes: Option<u64>,
+    pub checksum: String,
+}
+
+/// Sizes of the light field on disk and in memory (cf. the paper's Table 1).
+#[derive(Clone, Debug, Serialize)]
+pub struct MemoryInfo {
+    /// Radiance as stored (the file's encoding): also what a renderer sampling the encoded
+    /// texture directly (e.g. wgpu `Rgb9e5Ufloat`) keeps on the GPU.
+    pub radiance_file_bytes: u64,
+    /// Radiance as f32 RGBA, the in-memory [`crate::lightfield::LightField`] form (and one
+    /// radiance map of a propagation, which keeps several such maps per texel).
+    pub radiance_f32_bytes: u64,
+    /// Triangles and faces (identical on disk and in memory).
+    pub geometry_bytes: u64,
+    /// Sum of the sections in memory.
+    pub loaded_bytes: u64,
+}
+
+impl FileInfo {
+    pub(super) fn new(
+        path: &Path,
+        preamble: &Preamble,
+        h: &FileHeader,
+        enc: RadianceEncoding,
+    ) -> Self {
+        let memory_bytes = |s: &disk::SectionEntry| match s.name.as_str() {
+            disk::SECTION_RADIANCE | disk::SECTION_TILE_RADIANCE => Some(s.count.saturating_mul(16)),
+            disk::SECTION_TRIANGLES | disk::SECTION_FACES | disk::SECTION_TILE_INDEX => Some(s.byte_len),
+            _ => None,
+        };
+        let sections: Vec<SectionInfo> = h
+            .sections
+            .iter()
+            .map(|s| SectionInfo {
+                name: s.name.clone(),
+                kind: s.kind,
+                required: s.required,
+                offset: s.offset,
+                count: s.count,
+                element_bytes: s.elem_size,
+                file_bytes: s.byte_len,
+                memory_bytes: memory_bytes(s),
+                checksum: format!("{:016x}", s.checksum),
+            })
+            .collect();
+        let get = |name: &str| h.sections.iter().find(|s| s.name == name);
+        let count = |name: &str| get(name).map_or(0, |s| s.count);
+        let bytes = |name: &str| get(name).map_or(0, |s| s.byte_len);
+        let geometry_bytes = bytes(disk::SECTION_TRIANGLES)
+            + bytes(disk::SECTION_FACES)
+            + bytes(disk::SECTION_TILE_INDEX);
+        let radiance_f32_bytes =
+            (h.texels.saturating_add(count(disk::SECTION_TILE_RADIANCE))).saturating_mul(16);
+        FileInfo {
+            path: path.display().to_string(),
+            format_version: preamble.version,
+            file_bytes: preamble.file_len,
+            header_bytes: u64::from(preamble.header_len),
+            params: (&h.params).into(),
+            direction_scheme: h.directions.scheme,
+            direction_frequency: h.directions.frequency,
+            directions: h.directions.count,
+            transform: (&h.transform).into(),
+            scene: h.scene.to_summary(),
+            cameras: h
+                .cameras
+                .iter()
+                .enumerate()
+                .map(|(i, c)| c.name.clone().unwrap_or_else(|| format!("camera {i}")))
+                .collect(),
+            triangles: count(disk::SECTION_TRIANGLES),
+            faces: count(disk::SECTION_FACES),
+            texels: h.texels,
+            radiance_encoding: enc.name().into(),
+            memory: MemoryInfo {
+                radiance_file_bytes: bytes(disk::SECTION_RADIANCE) + bytes(disk::SECTION_TILE_RADIANCE),
+                radiance_f32_bytes,
+                geometry_bytes,
+                loaded_bytes: sections
+                    .iter()
+                    .filter_map(|s| s.memory_bytes)
+                    .fold(0, u64::saturating_add),
+            },
+            sections,
+            stats: (&h.stats).into(),
+        }
+    }
+}
+
+/// `1234567` → `"1.18 MiB"`.
+fn human(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.2} {}", UNITS[u])
+    }
+}
+
+impl fmt::Display for FileInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let p = &self.params;
+        writeln!(f, "{}", self.path)?;
+        writeln!(
+            f,
+            "  format        .vlf version {}, {} ({} header)",
+            self.format_version,
+            human(self.file_bytes),
+            human(self.header_bytes)
+        )?;
+        writeln!(f, "  scene         {}", self.scene.source)?;
+        writeln!(
+            f,
+            "  geometry      {} triangles, {} faces, {} atlas texels ({} per side × 2 sides on average)",
+            self.triangles,
+            self.faces,
+            self.texels,
+            self.texels / 2 / self.faces.max(1)
+        )?;
+        writeln!(
+            f,
+            "  directions    {} (frequency {}, {} requested)",
+            self.directions, self.direction_frequency, p.directions
+        )?;
+        writeln!(
+            f,
+            "  rays          {0} × {0} per direction, {1} × {1} tiles, texel scale {2}, {3} perturbed copies, seed {4:#x}",
+            p.resolution, p.tile, p.texel_scale, p.perturb, p.seed
+        )?;
+        let iterations = match p.iterations {
+            Iterations::Fixed(n) => format!("{n}"),
+            Iterations::Converge { threshold, max } => {
+                format!("until unshot < {threshold} × emitted, at most {max}")
+            }
+        };
+        writeln!(
+            f,
+            "  iterations    {iterations}; sky {:?}",
+            p.sky.to_array()
+        )?;
+        writeln!(
+            f,
+            "  transform     vlf = (world − {:?}) × {}",
+            self.transform.center.to_array(),
+            self.transform.scale
+        )?;
+        if !self.cameras.is_empty() {
+            writeln!(f, "  cameras       {}", self.cameras.join(", "))?;
+        }
+        writeln!(f, "  radiance      {}", self.radiance_encoding)?;
+        writeln!(
+            f,
+            "  sections      name        count         file       memory"
+        )?;
+        for s in &self.sections {
+            writeln!(
+                f,
+                "                {:<10} {:>6} {:>12} {:>12}{}",
+                s.name,
+                s.count,
+                human(s.file_bytes),
+                s.memory_bytes.map_or("?".into(), human),
+                if s.memory_bytes.is_none() {
+                    "  (unknown section)"
+                } else {
+                    ""
+                }
+            )?;
+        }
+        let m = &self.memory;
+        writeln!(
+            f,
+            "  memory        radiance {} stored, {} as f32 RGBA; geometry {}; {} loaded",
+            human(m.radiance_file_bytes),
+            human(m.radiance_f32_bytes),
+            human(m.geometry_bytes),
+            human(m.loaded_bytes)
+        )?;
+        let s = &self.stats;
+        write!(f, "  bake          {} iterations on {} ({})", s.iterations, s.device, s.adapter)?;
+        if s.phases.is_empty() {
+            // Timings are not stored (files are reproducible); `vlf-bake bake --json` reports them.
+            writeln!(f)?;
+        } else {
+            writeln!(f, ", {:.2} s", s.total_seconds())?;
+        }
+        for (name, secs) in &s.phases {
+            writeln!(f, "                {name:<12} {secs:>9.3} s")?;
+        }
+        write!(
+            f,
+            "  energy        emitted {:.6}, injected {:.6}, absorbed {:.6}, escaped {:.6}, unshot {:.6}",
+            s.emitted, s.injected, s.absorbed, s.escaped, s.unshot
+        )
+    }
+}
