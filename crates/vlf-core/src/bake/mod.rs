@@ -5,6 +5,7 @@
 //! See `docs/PROPAGATION.md` for the algorithm and why it departs from the paper's painter's
 //! sort (exact per-ray depth lists) and float-atomic scatter (per-texel gather).
 
+pub mod auto;
 pub mod params;
 pub mod prep;
 pub mod reference;

@@ -1,0 +1,171 @@
+//! `--quality auto`: parameters chosen from the scene (issue 9). The rules, and why:
+//!
+//! * **Directions** come from the preset (draft 126, auto 606, high 2001): they set the angular
+//!   resolution δ ≈ √(4π / 2l) of the light field.
+//! * **Ray spacing** should match what the directions can resolve where light actually travels:
+//!   a texel at distance d from the surfaces it sees resolves them at d·δ, so rays finer than
+//!   d·δ buy nothing (the VLF-GPU paper notes this ratio "can be computed automatically"). We
+//!   measure d as the median distance between consecutive crossings along rays of a few
+//!   directions (the mutual-visibility distance), and choose N = 2 / (d·δ) rounded up to a power
+//!   of two, within the preset's range (draft 32–64, auto 64–256, high 128–512).
+//! * **Tile size** bounds the per-ray work: the largest m dividing N for which the mean number
+//!   of triangles binned per non-empty tile is at most 24 (dense meshes get small tiles).
+//! * **Perturbed directions** fight direction holes: when the brightest emitter subtends less
+//!   than four directions' solid angle from the typical distance d, each direction gets
+//!   ⌈4ΔΩ/Ω_e⌉ jittered copies (capped: draft 4, auto 16, high 32).
+//! * **Stopping**: iterate until the unshot power is below 1e-2 (draft), 1e-3 (auto), 1e-4
+//!   (high) of the emitted power.
+//! * Diffuse-only scenes store no directional data and mirror tiles are allocated only where a
+//!   face projects (automatic in the bake, not a parameter).
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::params::{BakeParams, Iterations, Quality};
+use super::prep::BakeScene;
+use super::reference::{bin_triangles, build_cell_lists, project};
+use crate::directions::DirectionSet;
+use crate::psf::{PsfFrame, PsfGrid};
+use crate::scene::Scene;
+
+/// What the auto rules measured and chose (printed with `-v` and in `--json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct AutoReport {
+    pub quality: String,
+    /// Median distance between consecutive crossings along rays (VLF units, sphere radius 1).
+    pub visibility_distance: f32,
+    /// Angular spacing of the direction set (radians).
+    pub angular_spacing: f32,
+    /// Largest emitter solid angle seen from `visibility_distance` (steradians).
+    pub emitter_solid_angle: f32,
+    pub mean_bin_length: f32,
+    pub params: BakeParams,
+    pub reasons: Vec<String>,
+}
+
+/// Chooses the parameters for `scene` at `quality` (sky and seed are left to the caller).
+pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
+    let mut p = quality.params();
+    let (n_min, n_max, perturb_cap, threshold) = match quality {
+        Quality::Draft => (32u32, 64u32, 4u32, 1e-2f32),
+        Quality::Auto => (64, 256, 16, 1e-3),
+        Quality::High => (128, 512, 32, 1e-4),
+    };
+    let mut reasons = Vec::new();
+    let l = DirectionSet::at_least(p.directions).map_or(p.directions as usize, |s| s.len());
+    let delta = (4.0 * std::f32::consts::PI / (2.0 * l as f32)).sqrt();
+
+    // Probe the scene with a coarse grid (64², 8×8 tiles) along a few directions.
+    let probe = BakeParams {
+        resolution: 64,
+        tile: 8,
+        ..p.clone()
+    };
+    let prep = BakeScene::new(scene, &probe).ok();
+    let grid = PsfGrid::new(64, 8).expect("valid probe grid");
+    let mut gaps = Vec::new();
+    if let Some(prep) = &prep {
+        for w in [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(1.0, 1.0, 1.0).normalize(),
+            Vec3::new(-1.0, 2.0, 0.5).normalize(),
+        ] {
+            let lists = build_cell_lists(prep, &grid, &PsfFrame::new(w));
+            let front = |face: u32| prep.faces[face as usize].normal().dot(w);
+            for c in 0..lists.start.len() - 1 {
+                let e = &lists.entries[lists.start[c] as usize..lists.start[c + 1] as usize];
+                // Only open space between front sides counts (light leaves the front of one
+                // face towards the front of the next); gaps inside closed solids and wall
+                // thicknesses say nothing about how far light travels.
+                gaps.extend(
+                    e.windows(2)
+                        .filter(|p| front(p[0].1) > 0.0 && front(p[1].1) < 0.0)
+                        .map(|p| p[1].0 - p[0].0)
+                        .filter(|g| *g > 1e-6),
+                );
+            }
+        }
+    }
+    gaps.sort_by(f32::total_cmp);
+    let d = gaps
+        .get(gaps.len() / 2)
+        .copied()
+        .unwrap_or(1.0)
+        .clamp(0.01, 2.0);
+    let ideal = 2.0 / (d * delta);
+    let mut n = n_min;
+    while (n as f32) < ideal && n < n_max {
+        n *= 2;
+    }
+    reasons.push(format!(
+        "rays: median visibility distance {d:.3} × angular spacing {delta:.3} rad → {ideal:.0} rays per side, {n} within the preset's {n_min}–{n_max}"
+    ));
+    p.resolution = n;
+
+    // Tile size from the binning density at the chosen resolution.
+    let mut mean_bin = 0.0;
+    if let Some(prep) = &prep {
+        let frame = PsfFrame::new(Vec3::new(0.3, 0.8, 0.5).normalize());
+        let proj = project(prep, &frame);
+        let mut chosen = 1;
+        for m in [16u32, 8, 4, 2, 1] {
+            if !n.is_multiple_of(m) {
+                continue;
+            }
+            let bins = bin_triangles(&proj, &PsfGrid::new(n, m).expect("m divides n"));
+            let non_empty = bins.start.windows(2).filter(|w| w[1] > w[0]).count().max(1);
+            mean_bin = bins.tris.len() as f32 / non_empty as f32;
+            chosen = m;
+            if mean_bin <= 24.0 {
+                break;
+            }
+        }
+        p.tile = chosen;
+        reasons.push(format!(
+            "tiles: {chosen}×{chosen} cells, {mean_bin:.1} triangles per non-empty tile on average"
+        ));
+    }
+
+    // Perturbation for small emitters.
+    let scale = scene.to_vlf.scale;
+    let mut emitter_area = 0f32;
+    for f in &scene.faces {
+        let m = &scene.materials[f.material as usize];
+        if m.is_emissive() {
+            emitter_area = emitter_area.max(f.area * scale * scale);
+        }
+    }
+    let omega_dir = 4.0 * std::f32::consts::PI / (2.0 * l as f32);
+    let omega_e = if emitter_area > 0.0 {
+        (emitter_area / (d * d)).min(2.0 * std::f32::consts::PI)
+    } else {
+        0.0
+    };
+    p.perturb = 0;
+    if omega_e > 0.0 && omega_e < 4.0 * omega_dir {
+        p.perturb = ((4.0 * omega_dir / omega_e).ceil() as u32).clamp(1, perturb_cap);
+        reasons.push(format!(
+            "perturbation: the largest emitter subtends {omega_e:.4} sr < 4 × {omega_dir:.4} sr per direction → {} jittered copies per direction",
+            p.perturb
+        ));
+    } else if !scene.suns.is_empty() && omega_e == 0.0 {
+        reasons.push("perturbation: none (lit by suns, which are exact directions)".into());
+    }
+    if let Iterations::Converge { max, .. } = p.iterations {
+        p.iterations = Iterations::Converge { threshold, max };
+    }
+    reasons.push(format!(
+        "stopping: unshot power below {threshold:e} of the emitted power"
+    ));
+    AutoReport {
+        quality: format!("{quality:?}").to_lowercase(),
+        visibility_distance: d,
+        angular_spacing: delta,
+        emitter_solid_angle: omega_e,
+        mean_bin_length: mean_bin,
+        params: p,
+        reasons,
+    }
+}
