@@ -390,7 +390,11 @@ pub fn interface(
 
 /// What one direction's gather needs for non-diffuse faces: the sender state, this direction's
 /// reflect jobs, and the next-iteration tiles they write.
-pub type SpecularStep<'a, 'b> = (&'a Specular<'a>, &'b [tiles::ReflectJob], &'b mut [[f32; 4]]);
+pub type SpecularStep<'a, 'b> = (
+    &'a Specular<'a>,
+    &'b [tiles::ReflectJob],
+    &'b mut [[f32; 4]],
+);
 
 /// The reflect step (receiving on non-diffuse faces) for one transport direction: every
 /// destination cell of every job maps through the face plane into this direction's PSF and

@@ -76,8 +76,12 @@ impl FileInfo {
         enc: RadianceEncoding,
     ) -> Self {
         let memory_bytes = |s: &disk::SectionEntry| match s.name.as_str() {
-            disk::SECTION_RADIANCE | disk::SECTION_TILE_RADIANCE => Some(s.count.saturating_mul(16)),
-            disk::SECTION_TRIANGLES | disk::SECTION_FACES | disk::SECTION_TILE_INDEX => Some(s.byte_len),
+            disk::SECTION_RADIANCE | disk::SECTION_TILE_RADIANCE => {
+                Some(s.count.saturating_mul(16))
+            }
+            disk::SECTION_TRIANGLES | disk::SECTION_FACES | disk::SECTION_TILE_INDEX => {
+                Some(s.byte_len)
+            }
             _ => None,
         };
         let sections: Vec<SectionInfo> = h
@@ -125,7 +129,8 @@ impl FileInfo {
             texels: h.texels,
             radiance_encoding: enc.name().into(),
             memory: MemoryInfo {
-                radiance_file_bytes: bytes(disk::SECTION_RADIANCE) + bytes(disk::SECTION_TILE_RADIANCE),
+                radiance_file_bytes: bytes(disk::SECTION_RADIANCE)
+                    + bytes(disk::SECTION_TILE_RADIANCE),
                 radiance_f32_bytes,
                 geometry_bytes,
                 loaded_bytes: sections
@@ -235,7 +240,11 @@ impl fmt::Display for FileInfo {
             human(m.loaded_bytes)
         )?;
         let s = &self.stats;
-        write!(f, "  bake          {} iterations on {} ({})", s.iterations, s.device, s.adapter)?;
+        write!(
+            f,
+            "  bake          {} iterations on {} ({})",
+            s.iterations, s.device, s.adapter
+        )?;
         if s.phases.is_empty() {
             // Timings are not stored (files are reproducible); `vlf-bake bake --json` reports them.
             writeln!(f)?;

@@ -69,7 +69,7 @@ pub fn unpack(words: &[u32]) -> Result<TileIndex, String> {
 
 /// Checks internal consistency and against `faces` faces and `values` tile values.
 pub fn validate(ix: &TileIndex, faces: usize, values: usize) -> Result<(), String> {
-    if ix.m == 0 || ix.n == 0 || ix.n % ix.m != 0 || ix.n > 4096 || ix.m > 64 {
+    if ix.m == 0 || ix.n == 0 || !ix.n.is_multiple_of(ix.m) || ix.n > 4096 || ix.m > 64 {
         return Err(format!(
             "grid of {} rays in {}-cell tiles is invalid",
             ix.n, ix.m
