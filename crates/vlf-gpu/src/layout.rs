@@ -16,6 +16,44 @@ pub struct SmokeParams {
     pub _pad: u32,
 }
 
+/// Per-frame (per-sample) globals of the five render passes and the display pass: bind group 0,
+/// binding 0 of every `shaders/render_*.wgsl`. All positions are VLF coordinates.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderGlobals {
+    /// VLF → clip space of the camera (jittered by the current sub-pixel sample; reverse-Z,
+    /// infinite far plane).
+    pub view_proj: [[f32; 4]; 4],
+    /// The same camera placed at the sphere centre (rotation and projection only): direction
+    /// space → clip space, for the direction-set passes.
+    pub dir_view_proj: [[f32; 4]; 4],
+    /// Eye position (xyz, VLF), w = 1.
+    pub eye: [f32; 4],
+    /// Background (sky) radiance, rgb; a unused.
+    pub sky: [f32; 4],
+    /// Render-target size in pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Index of the current sub-pixel sample (0 clears the accumulation).
+    pub sample_index: u32,
+    /// Number of samples accumulated into this image.
+    pub sample_count: u32,
+    /// Weight of this sample in the mean (1 / sample_count).
+    pub sample_weight: f32,
+    /// Number of faces (ids ≥ this are "no face").
+    pub face_count: u32,
+    /// Display: which pass output to show ([`crate::render::Pass`] as u32).
+    pub view: u32,
+    /// Display: 0 = none (raw linear values), 1 = clamp to [0, 1], 2 = ACES (fitted).
+    pub tonemap: u32,
+    /// Display: linear factor applied to radiance before tonemapping (2^stops).
+    pub exposure: f32,
+    /// Display: 1 when the target format is not sRGB and the shader must encode sRGB itself.
+    pub encode_srgb: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
 /// Per-direction globals of the bake passes (`shaders/bake_*.wgsl`), one per transport
 /// direction, written at a 256-byte stride and bound with a dynamic offset.
 #[repr(C)]
@@ -107,14 +145,29 @@ pub struct TexelAccum {
 /// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
 pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
     use vlf_core::bake::{BakeFace, BakeTriangle};
-    fn entry<T>(name: &'static str, file: &'static str) -> (&'static str, &'static str, usize, usize) {
-        (name, file, std::mem::size_of::<T>(), std::mem::align_of::<T>())
+    type Entry = (&'static str, &'static str, usize, usize);
+    fn entry<T>(name: &'static str, file: &'static str) -> Entry {
+        let (size, align) = (std::mem::size_of::<T>(), std::mem::align_of::<T>());
+        (name, file, size, align)
     }
     let mut reg = vec![entry::<SmokeParams>("SmokeParams", "smoke.wgsl")];
+    // Every render shader declares its own copy of the globals (WGSL has no includes): check each.
+    for file in crate::render::SHADER_FILES {
+        reg.push(entry::<RenderGlobals>("RenderGlobals", file));
+    }
+    reg.extend([
+        entry::<BakeTriangle>("BakeTriangle", "render_face_id.wgsl"),
+        entry::<BakeTriangle>("BakeTriangle", "render_position.wgsl"),
+    ]);
     reg.push(entry::<ReflectItem>("ReflectItem", "bake_reflect.wgsl"));
     reg.push(entry::<BakeFace>("BakeFace", "bake_reflect.wgsl"));
     reg.push(entry::<Crossing>("Crossing", "bake_reflect.wgsl"));
-    for file in ["bake_cells.wgsl", "bake_interface.wgsl", "bake_gather.wgsl", "bake_reflect.wgsl"] {
+    for file in [
+        "bake_cells.wgsl",
+        "bake_interface.wgsl",
+        "bake_gather.wgsl",
+        "bake_reflect.wgsl",
+    ] {
         reg.push(entry::<BakeDirection>("BakeDirection", file));
         reg.push(entry::<CellEntry>("CellEntry", file));
     }

@@ -5,6 +5,7 @@
 //! * [`shaders`]: the registry of every WGSL file under `shaders/`, embedded at compile time.
 //! * [`layout`]: the one source of truth for structs shared between Rust and WGSL.
 //! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
+//! * [`render`]: the viewer's five render passes (paper §4) and headless stills.
 //! * [`readback`]: small helpers to copy buffers back to the CPU (tests, stills, bakes).
 
 pub mod bake;
@@ -12,6 +13,7 @@ pub mod device;
 pub mod layout;
 pub mod passes;
 pub mod readback;
+pub mod render;
 pub mod shaders;
 
 pub use device::{DeviceError, DeviceOptions, GpuContext};

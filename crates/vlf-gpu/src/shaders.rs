@@ -26,9 +26,27 @@ pub const BAKE_CELLS: Shader = shader!("bake_cells.wgsl");
 pub const BAKE_INTERFACE: Shader = shader!("bake_interface.wgsl");
 pub const BAKE_GATHER: Shader = shader!("bake_gather.wgsl");
 pub const BAKE_REFLECT: Shader = shader!("bake_reflect.wgsl");
+pub const RENDER_DIRECTION_IDS: Shader = shader!("render_direction_ids.wgsl");
+pub const RENDER_BARYCENTRICS: Shader = shader!("render_barycentrics.wgsl");
+pub const RENDER_FACE_ID: Shader = shader!("render_face_id.wgsl");
+pub const RENDER_POSITION: Shader = shader!("render_position.wgsl");
+pub const RENDER_FINAL_RADIANCE: Shader = shader!("render_final_radiance.wgsl");
+pub const RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
 
 /// Every shader of the project. The test `registry_matches_folder` keeps this list complete.
-pub const ALL: &[Shader] = &[SMOKE, BAKE_CELLS, BAKE_INTERFACE, BAKE_GATHER, BAKE_REFLECT];
+pub const ALL: &[Shader] = &[
+    SMOKE,
+    BAKE_CELLS,
+    BAKE_INTERFACE,
+    BAKE_GATHER,
+    BAKE_REFLECT,
+    RENDER_DIRECTION_IDS,
+    RENDER_BARYCENTRICS,
+    RENDER_FACE_ID,
+    RENDER_POSITION,
+    RENDER_FINAL_RADIANCE,
+    RENDER_DISPLAY,
+];
 
 impl Shader {
     /// Compiles the shader into a module labelled `"Shader::<file>"`.
@@ -72,7 +90,11 @@ mod tests {
             .filter(|p| p.extension().is_some_and(|x| x == "wgsl"))
             .collect();
         files.sort();
-        assert!(!files.is_empty(), "no WGSL files found in {}", dir.display());
+        assert!(
+            !files.is_empty(),
+            "no WGSL files found in {}",
+            dir.display()
+        );
         let mut errors = Vec::new();
         for path in &files {
             let source = std::fs::read_to_string(path).unwrap();

@@ -40,8 +40,14 @@ pub enum GpuBakeError {
     #[error(
         "{what} needs {need} bytes in one GPU buffer but the adapter allows {limit}; lower --resolution or --directions"
     )]
-    TooLarge { what: &'static str, need: u64, limit: u64 },
-    #[error("a ray crosses {crossings} faces, more than the {max} supported (depth complexity too high)")]
+    TooLarge {
+        what: &'static str,
+        need: u64,
+        limit: u64,
+    },
+    #[error(
+        "a ray crosses {crossings} faces, more than the {max} supported (depth complexity too high)"
+    )]
     DepthComplexity { crossings: u32, max: u32 },
     #[error("reading back from the GPU failed (device lost?)")]
     Readback,
@@ -94,15 +100,21 @@ fn check_size(ctx: &GpuContext, what: &'static str, bytes: u64) -> Result<(), Gp
     Ok(())
 }
 
-fn buffer<T: bytemuck::Pod>(ctx: &GpuContext, label: &str, data: &[T], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+fn buffer<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    label: &str,
+    data: &[T],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     // Zero-length storage bindings are invalid: pad empty arrays to one element.
     let zero = [T::zeroed()];
     let data = if data.is_empty() { &zero[..] } else { data };
-    ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents: bytemuck::cast_slice(data),
-        usage: wgpu::BufferUsages::STORAGE | usage,
-    })
+    ctx.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::cast_slice(data),
+            usage: wgpu::BufferUsages::STORAGE | usage,
+        })
 }
 
 fn empty(ctx: &GpuContext, label: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -129,7 +141,10 @@ fn tile_data(spec: &SpecularSetup) -> TileData {
     let ix = &spec.index;
     let mut packed = Vec::new();
     let mut offsets = [0u32; 4];
-    for (k, part) in [&ix.face_slot, &ix.index_start, &ix.tile_ids, &ix.coverage].into_iter().enumerate() {
+    for (k, part) in [&ix.face_slot, &ix.index_start, &ix.tile_ids, &ix.coverage]
+        .into_iter()
+        .enumerate()
+    {
         offsets[k] = packed.len() as u32;
         packed.extend_from_slice(part);
     }
@@ -184,18 +199,44 @@ pub fn propagate(
     let binned = bin_all(scene, &grid, &dirs);
     let k_max = binned.k_max.min(MAX_CROSSINGS);
     let cells_n = u64::from(n) * u64::from(n);
-    check_size(ctx, "the ray crossing lists", cells_n * u64::from(k_max) * size_of::<Crossing>() as u64)?;
+    check_size(
+        ctx,
+        "the ray crossing lists",
+        cells_n * u64::from(k_max) * size_of::<Crossing>() as u64,
+    )?;
     check_size(ctx, "the tile bins", binned.tris.len() as u64 * 4)?;
     let n_tex = scene.texel_count();
-    check_size(ctx, "the texel accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64)?;
-    check_size(ctx, "the unshot radiance (texels and mirror tiles)", (n_tex + tile_len) as u64 * 16)?;
+    check_size(
+        ctx,
+        "the texel accumulators",
+        n_tex as u64 * size_of::<layout::TexelAccum>() as u64,
+    )?;
+    check_size(
+        ctx,
+        "the unshot radiance (texels and mirror tiles)",
+        (n_tex + tile_len) as u64 * 16,
+    )?;
     if let Some(t) = &tdata {
-        check_size(ctx, "the reflect items", t.items.len() as u64 * size_of::<ReflectItem>() as u64)?;
+        check_size(
+            ctx,
+            "the reflect items",
+            t.items.len() as u64 * size_of::<ReflectItem>() as u64,
+        )?;
     }
 
     // Geometry and atlas (uploaded once).
-    let triangles = buffer(ctx, "Bake::triangles", &scene.triangles, wgpu::BufferUsages::empty());
-    let faces = buffer(ctx, "Bake::faces", &scene.faces, wgpu::BufferUsages::empty());
+    let triangles = buffer(
+        ctx,
+        "Bake::triangles",
+        &scene.triangles,
+        wgpu::BufferUsages::empty(),
+    );
+    let faces = buffer(
+        ctx,
+        "Bake::faces",
+        &scene.faces,
+        wgpu::BufferUsages::empty(),
+    );
     let tex_face = reference::texel_faces(scene);
     let centers: Vec<[f32; 4]> = scene
         .texel_center
@@ -203,7 +244,12 @@ pub fn propagate(
         .zip(&tex_face)
         .map(|(c, &f)| [c[0], c[1], c[2], f32::from_bits(f)])
         .collect();
-    let texel_center = buffer(ctx, "Bake::texel_center", &centers, wgpu::BufferUsages::empty());
+    let texel_center = buffer(
+        ctx,
+        "Bake::texel_center",
+        &centers,
+        wgpu::BufferUsages::empty(),
+    );
     let active_list: Vec<u32> = (0..n_tex)
         .filter(|&t| {
             let f = &scene.faces[tex_face[t] as usize];
@@ -211,25 +257,95 @@ pub fn propagate(
         })
         .map(|t| t as u32)
         .collect();
-    let active = buffer(ctx, "Bake::active_texels", &active_list, wgpu::BufferUsages::empty());
-    let bin_start = buffer(ctx, "Bake::bin_start", &binned.start, wgpu::BufferUsages::empty());
-    let bin_tris = buffer(ctx, "Bake::bin_tris", &binned.tris, wgpu::BufferUsages::empty());
+    let active = buffer(
+        ctx,
+        "Bake::active_texels",
+        &active_list,
+        wgpu::BufferUsages::empty(),
+    );
+    let bin_start = buffer(
+        ctx,
+        "Bake::bin_start",
+        &binned.start,
+        wgpu::BufferUsages::empty(),
+    );
+    let bin_tris = buffer(
+        ctx,
+        "Bake::bin_tris",
+        &binned.tris,
+        wgpu::BufferUsages::empty(),
+    );
     let mut unshot_init = scene.emission.clone();
     unshot_init.resize(n_tex + tile_len, [0.0; 4]);
-    let unshot = buffer(ctx, "Bake::unshot", &unshot_init, wgpu::BufferUsages::COPY_DST);
+    let unshot = buffer(
+        ctx,
+        "Bake::unshot",
+        &unshot_init,
+        wgpu::BufferUsages::COPY_DST,
+    );
     let none_u32: Vec<u32> = Vec::new();
     let none_v4: Vec<[f32; 4]> = Vec::new();
     let none_items: Vec<ReflectItem> = Vec::new();
-    let tile_index = buffer(ctx, "Bake::tile_index", tdata.as_ref().map_or(&none_u32, |t| &t.packed), wgpu::BufferUsages::empty());
-    let frames = buffer(ctx, "Bake::frames", tdata.as_ref().map_or(&none_v4, |t| &t.frames), wgpu::BufferUsages::empty());
-    let items = buffer(ctx, "Bake::reflect_items", tdata.as_ref().map_or(&none_items, |t| &t.items), wgpu::BufferUsages::empty());
-    let next_tiles = empty(ctx, "Bake::next_tiles", tile_len as u64 * 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
-    let spec_escape = empty(ctx, "Bake::spec_escape", cells_n * 16, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
-    let cell_count = empty(ctx, "Bake::cell_count", cells_n * 4, wgpu::BufferUsages::empty());
-    let cells = empty(ctx, "Bake::cells", cells_n * u64::from(k_max) * size_of::<CellEntry>() as u64, wgpu::BufferUsages::empty());
-    let crossings = empty(ctx, "Bake::crossings", cells_n * u64::from(k_max) * size_of::<Crossing>() as u64, wgpu::BufferUsages::empty());
-    let acc = empty(ctx, "Bake::accumulators", n_tex as u64 * size_of::<layout::TexelAccum>() as u64, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
-    let overflow = buffer(ctx, "Bake::overflow", &[0u32; 4], wgpu::BufferUsages::COPY_SRC);
+    let tile_index = buffer(
+        ctx,
+        "Bake::tile_index",
+        tdata.as_ref().map_or(&none_u32, |t| &t.packed),
+        wgpu::BufferUsages::empty(),
+    );
+    let frames = buffer(
+        ctx,
+        "Bake::frames",
+        tdata.as_ref().map_or(&none_v4, |t| &t.frames),
+        wgpu::BufferUsages::empty(),
+    );
+    let items = buffer(
+        ctx,
+        "Bake::reflect_items",
+        tdata.as_ref().map_or(&none_items, |t| &t.items),
+        wgpu::BufferUsages::empty(),
+    );
+    let next_tiles = empty(
+        ctx,
+        "Bake::next_tiles",
+        tile_len as u64 * 16,
+        wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
+    let spec_escape = empty(
+        ctx,
+        "Bake::spec_escape",
+        cells_n * 16,
+        wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
+    let cell_count = empty(
+        ctx,
+        "Bake::cell_count",
+        cells_n * 4,
+        wgpu::BufferUsages::empty(),
+    );
+    let cells = empty(
+        ctx,
+        "Bake::cells",
+        cells_n * u64::from(k_max) * size_of::<CellEntry>() as u64,
+        wgpu::BufferUsages::empty(),
+    );
+    let crossings = empty(
+        ctx,
+        "Bake::crossings",
+        cells_n * u64::from(k_max) * size_of::<Crossing>() as u64,
+        wgpu::BufferUsages::empty(),
+    );
+    let acc = empty(
+        ctx,
+        "Bake::accumulators",
+        n_tex as u64 * size_of::<layout::TexelAccum>() as u64,
+        wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
+    let overflow = buffer(
+        ctx,
+        "Bake::overflow",
+        &[0u32; 4],
+        wgpu::BufferUsages::COPY_SRC,
+    );
 
     // Per-direction globals at a 256-byte stride (rewritten per iteration: the sky enters in
     // the first one only).
@@ -239,7 +355,10 @@ pub fn propagate(
         for (i, d) in dirs.iter().enumerate() {
             let lk = |t: glam::Vec3| {
                 let l = set.lookup(t);
-                ([l.vertices[0], l.vertices[1], l.vertices[2], 0], [l.weights[0], l.weights[1], l.weights[2], 0.0])
+                (
+                    [l.vertices[0], l.vertices[1], l.vertices[2], 0],
+                    [l.weights[0], l.weights[1], l.weights[2], 0.0],
+                )
             };
             let (pv, pw) = lk(d.frame.w);
             let (mv, mw) = lk(-d.frame.w);
@@ -316,16 +435,55 @@ pub fn propagate(
     let interface_pass = interface::InterfacePass::new(device, &globals_layout);
     let gather_pass = gather::GatherPass::new(device, &globals_layout);
     let reflect_pass = reflect::ReflectPass::new(device, &globals_layout);
-    let cells_bg = cells_pass.bind_group(device, &[&triangles, &bin_start, &bin_tris, &cell_count, &cells, &overflow]);
+    let cells_bg = cells_pass.bind_group(
+        device,
+        &[
+            &triangles,
+            &bin_start,
+            &bin_tris,
+            &cell_count,
+            &cells,
+            &overflow,
+        ],
+    );
     let interface_bg = interface_pass.bind_group(
         device,
-        &[&faces, &unshot, &cell_count, &cells, &crossings, &tile_index, &frames, &spec_escape],
+        &[
+            &faces,
+            &unshot,
+            &cell_count,
+            &cells,
+            &crossings,
+            &tile_index,
+            &frames,
+            &spec_escape,
+        ],
     );
     let reflect_bg = reflect_pass.bind_group(
         device,
-        &[&faces, &cell_count, &cells, &crossings, &tile_index, &frames, &items, &next_tiles],
+        &[
+            &faces,
+            &cell_count,
+            &cells,
+            &crossings,
+            &tile_index,
+            &frames,
+            &items,
+            &next_tiles,
+        ],
     );
-    let gather_bg = gather_pass.bind_group(device, &[&faces, &active, &texel_center, &cell_count, &cells, &crossings, &acc]);
+    let gather_bg = gather_pass.bind_group(
+        device,
+        &[
+            &faces,
+            &active,
+            &texel_center,
+            &cell_count,
+            &cells,
+            &crossings,
+            &acc,
+        ],
+    );
 
     let max_dim = device.limits().max_compute_workgroups_per_dimension;
     let cell_groups = dispatch_2d(n * n, 64, max_dim);
@@ -337,7 +495,12 @@ pub fn propagate(
     let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
     let mut energy = EnergyStats {
-        emitted: scene.emitted_power().to_array().iter().map(|&x| f64::from(x)).sum(),
+        emitted: scene
+            .emitted_power()
+            .to_array()
+            .iter()
+            .map(|&x| f64::from(x))
+            .sum(),
         ..Default::default()
     };
     let (max_iter, threshold) = match params.iterations {
@@ -347,21 +510,33 @@ pub fn propagate(
     let mut iterations = 0;
     for it in 0..max_iter {
         let first = it == 0;
-        ctx.queue.write_buffer(&unshot, 0, bytemuck::cast_slice(&unshot_host));
+        ctx.queue
+            .write_buffer(&unshot, 0, bytemuck::cast_slice(&unshot_host));
         if tile_len > 0 {
-            ctx.queue.write_buffer(&unshot, n_tex as u64 * 16, bytemuck::cast_slice(&unshot_tiles));
+            ctx.queue.write_buffer(
+                &unshot,
+                n_tex as u64 * 16,
+                bytemuck::cast_slice(&unshot_tiles),
+            );
         }
         if it == 1 {
-            ctx.queue.write_buffer(&dir_uniforms, 0, &uniforms(glam::Vec3::ZERO));
+            ctx.queue
+                .write_buffer(&dir_uniforms, 0, &uniforms(glam::Vec3::ZERO));
         }
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("Bake::clear") });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("Bake::clear"),
+        });
         encoder.clear_buffer(&acc, 0, None);
         encoder.clear_buffer(&next_tiles, 0, None);
         encoder.clear_buffer(&spec_escape, 0, None);
         ctx.queue.submit(Some(encoder.finish()));
-        let active_dirs: Vec<usize> = (0..dirs.len()).filter(|&i| i < quadrature || first).collect();
+        let active_dirs: Vec<usize> = (0..dirs.len())
+            .filter(|&i| i < quadrature || first)
+            .collect();
         for (chunk_i, chunk) in active_dirs.chunks(DIRS_PER_SUBMIT).enumerate() {
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("Bake::directions") });
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("Bake::directions"),
+            });
             {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("Bake::pass"),
@@ -399,11 +574,16 @@ pub fn propagate(
                 directions: active_dirs.len(),
             });
         }
-        let over: Vec<u32> = read_buffer(device, &ctx.queue, &overflow).map_err(|_| GpuBakeError::Readback)?;
+        let over: Vec<u32> =
+            read_buffer(device, &ctx.queue, &overflow).map_err(|_| GpuBakeError::Readback)?;
         if over[0] > 0 {
-            return Err(GpuBakeError::DepthComplexity { crossings: over[0], max: k_max });
+            return Err(GpuBakeError::DepthComplexity {
+                crossings: over[0],
+                max: k_max,
+            });
         }
-        let gpu_acc: Vec<layout::TexelAccum> = read_buffer(device, &ctx.queue, &acc).map_err(|_| GpuBakeError::Readback)?;
+        let gpu_acc: Vec<layout::TexelAccum> =
+            read_buffer(device, &ctx.queue, &acc).map_err(|_| GpuBakeError::Readback)?;
         let acc_host: Vec<TexelAccum> = gpu_acc
             .iter()
             .take(n_tex)
@@ -413,13 +593,18 @@ pub fn propagate(
             })
             .collect();
         let sky = if first { params.sky } else { glam::Vec3::ZERO };
-        let mut e = reference::finish_iteration(scene, &tex_face, &acc_host, &unshot_host, sky, &mut next);
+        let mut e =
+            reference::finish_iteration(scene, &tex_face, &acc_host, &unshot_host, sky, &mut next);
         if let Some(sp) = &spec {
             let mut next_tiles_host: Vec<[f32; 4]> =
                 read_buffer(device, &ctx.queue, &next_tiles).map_err(|_| GpuBakeError::Readback)?;
             next_tiles_host.truncate(tile_len);
-            let esc: Vec<[f32; 4]> = read_buffer(device, &ctx.queue, &spec_escape).map_err(|_| GpuBakeError::Readback)?;
-            e.escaped += esc.iter().map(|v| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2])).sum::<f64>();
+            let esc: Vec<[f32; 4]> = read_buffer(device, &ctx.queue, &spec_escape)
+                .map_err(|_| GpuBakeError::Readback)?;
+            e.escaped += esc
+                .iter()
+                .map(|v| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]))
+                .sum::<f64>();
             e.sent += reference::tile_power(&sp.index, &unshot_tiles, set, &grid);
             e.next += reference::tile_power(&sp.index, &next_tiles_host, set, &grid);
             for (t, nx) in total_tiles.iter_mut().zip(&next_tiles_host) {
@@ -427,7 +612,13 @@ pub fn propagate(
             }
             unshot_tiles = next_tiles_host;
         }
-        log::debug!("GPU iteration {it}: sent {:.5} received {:.5} escaped {:.5} next {:.5}", e.sent, e.received, e.escaped, e.next);
+        log::debug!(
+            "GPU iteration {it}: sent {:.5} received {:.5} escaped {:.5} next {:.5}",
+            e.sent,
+            e.received,
+            e.escaped,
+            e.next
+        );
         energy.injected += e.injected;
         energy.absorbed += e.absorbed;
         energy.escaped += e.escaped;

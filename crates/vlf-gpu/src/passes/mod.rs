@@ -27,7 +27,12 @@ mod tests {
 
     #[test]
     fn dispatch_2d_covers_every_invocation() {
-        for &(n, max) in &[(1, 65535), (64 * 65535, 65535), (64 * 65535 + 1, 65535), (10_000, 20)] {
+        for &(n, max) in &[
+            (1, 65535),
+            (64 * 65535, 65535),
+            (64 * 65535 + 1, 65535),
+            (10_000, 20),
+        ] {
             let (x, y) = dispatch_2d(n, 64, max);
             assert!(x <= max && y <= max);
             assert!(u64::from(x) * u64::from(y) * 64 >= u64::from(n));

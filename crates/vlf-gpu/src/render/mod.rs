@@ -1,0 +1,863 @@
+//! The viewer's renderer: five passes per frame (paper §4, "Rendering on the GPU").
+//!
+//! Pass order (the one place it is written down), per pixel of the view:
+//!
+//! 1. [`direction_ids`]: the direction set's sphere triangles drawn from the sphere centre with
+//!    the camera's orientation → the three sphere-vertex ids of the view ray's triangle
+//!    (`Rgba32Uint`: ids, triangle index).
+//! 2. [`barycentrics`]: the same mesh with one-hot vertex colours → the view direction's
+//!    barycentric weights (`Rgba32Float`), equal to `DirectionSet::lookup`'s.
+//! 3. [`face_id`]: the scene, depth-tested → face id of the visible surface (`R32Uint`,
+//!    [`NO_FACE`] for background).
+//! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
+//!    (`Rgba32Float`, w = 1 where a face is seen).
+//! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the atlas radiance at that
+//!    point on the side facing the camera, or the sky (`Rgba32Float`); stills average several
+//!    jittered samples into a storage buffer.
+//!
+//! Then [`display`] shows the selected [`Pass`]'s output (debug view) on a colour target. For
+//! the final image in the window the display is fused into pass 5 (a second colour target:
+//! the window's surface), see below.
+//!
+//! Pass structure, measured on lavapipe (2-core VM, Mesa 22.3.6), Cornell box, 1024×768,
+//! wall-clock per frame (encode, submit, wait), median of 30 frames, variants run alternately:
+//!
+//! | variant | frame |
+//! |---|---|
+//! | five passes + separate display pass | 37.5 ms |
+//! | passes 1+2 and 3+4 fused into two MRT passes, separate display | 36.8 ms |
+//! | five passes, display fused into pass 5 (chosen) | 30.2 ms |
+//!
+//! Fusing 1+2 and 3+4 saved < 1 ms (2 %, within run-to-run noise), so those passes stay
+//! separate: one pipeline and one WGSL file each. The fused display saves a full-screen pass
+//! that only read the radiance back (~20 %). Also measured: per-pixel data read by pass 5
+//! (atlas, face records) lives in textures, not storage buffers (see [`upload`]).
+//!
+//! Bindings: group 0 = [`RenderGlobals`] (camera matrices, eye, sky, sample index), group 1 =
+//! the pass's own resources. Everything is labelled `"PassName::thing"`.
+
+pub mod barycentrics;
+pub mod camera;
+pub mod direction_ids;
+pub mod display;
+pub mod face_id;
+pub mod final_radiance;
+pub mod position;
+pub mod targets;
+pub mod timing;
+pub mod upload;
+
+use glam::Vec2;
+use vlf_core::lightfield::LightField;
+
+pub use camera::{CameraView, sample_offsets};
+
+use crate::GpuContext;
+use crate::layout::RenderGlobals;
+use barycentrics::BarycentricsPass;
+use direction_ids::DirectionIdsPass;
+use display::DisplayPass;
+use face_id::FaceIdPass;
+use final_radiance::FinalRadiancePass;
+use position::PositionPass;
+use targets::Targets;
+use timing::GpuTimer;
+use upload::GpuLightField;
+
+/// Face id written where no surface is seen.
+pub const NO_FACE: u32 = u32::MAX;
+
+/// Every WGSL file of the renderer (each declares its own copy of `RenderGlobals`).
+pub const SHADER_FILES: [&str; 6] = [
+    "render_direction_ids.wgsl",
+    "render_barycentrics.wgsl",
+    "render_face_id.wgsl",
+    "render_position.wgsl",
+    "render_final_radiance.wgsl",
+    "render_display.wgsl",
+];
+
+/// The five passes, in order; also the debug-view selector.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Pass {
+    DirectionIds = 0,
+    Barycentrics = 1,
+    FaceId = 2,
+    Position = 3,
+    #[default]
+    FinalRadiance = 4,
+}
+
+impl Pass {
+    pub const ALL: [Pass; 5] = [
+        Pass::DirectionIds,
+        Pass::Barycentrics,
+        Pass::FaceId,
+        Pass::Position,
+        Pass::FinalRadiance,
+    ];
+
+    /// Short kebab-case name (command-line values, labels).
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::DirectionIds => "direction-ids",
+            Pass::Barycentrics => "barycentrics",
+            Pass::FaceId => "face-id",
+            Pass::Position => "position",
+            Pass::FinalRadiance => "final-radiance",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Pass> {
+        Pass::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+/// Labels of the GPU-timed passes, in [`Renderer::pass_times`] order.
+pub const TIMED_PASSES: [&str; 6] = [
+    "direction-ids",
+    "barycentrics",
+    "face-id",
+    "position",
+    "final-radiance",
+    "display",
+];
+
+/// How the display maps radiance to the screen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Tonemap {
+    /// Raw linear values (float targets only; unorm targets clamp).
+    None = 0,
+    /// Linear, clamped to [0, 1] (`vlf_core::image::Tonemap::Clamp`).
+    #[default]
+    Clamp = 1,
+    /// Narkowicz's fitted ACES curve with 0.6 pre-exposure (`vlf_core::image::Tonemap::Aces`).
+    Aces = 2,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("light field is invalid: {0}")]
+    InvalidLightField(String),
+    #[error("{what} needs {bytes} bytes but the device allows at most {limit}")]
+    TooLarge {
+        what: String,
+        bytes: u64,
+        limit: u64,
+    },
+    #[error("image size {width}×{height} is not supported (1..={max} per side)")]
+    Size { width: u32, height: u32, max: u32 },
+    #[error("GPU readback failed: {0}")]
+    Readback(#[from] wgpu::BufferAsyncError),
+}
+
+/// Every pass output of one frame (one sample at the pixel centres), row 0 at the top: for
+/// tests and inspection.
+#[derive(Clone, Debug)]
+pub struct FrameData {
+    pub width: u32,
+    pub height: u32,
+    pub direction_ids: Vec<[u32; 4]>,
+    pub barycentrics: Vec<[f32; 4]>,
+    pub face_id: Vec<u32>,
+    pub position: Vec<[f32; 4]>,
+    pub radiance: Vec<[f32; 4]>,
+}
+
+/// How the display maps a frame to its target (written into the per-frame globals).
+#[derive(Clone, Copy, Debug)]
+struct Display {
+    view: Pass,
+    /// Linear factor.
+    exposure: f32,
+    tonemap: Tonemap,
+    /// Format of the target (decides whether the shader encodes sRGB).
+    format: wgpu::TextureFormat,
+}
+
+impl Display {
+    /// Raw linear values (stills, tests).
+    const RAW: Display = Display {
+        view: Pass::FinalRadiance,
+        exposure: 1.0,
+        tonemap: Tonemap::None,
+        format: wgpu::TextureFormat::Rgba32Float,
+    };
+}
+
+/// Size-dependent state: targets and the bind groups that reference them.
+struct Frame {
+    targets: Targets,
+    final_bind_group: wgpu::BindGroup,
+    display_bind_group: wgpu::BindGroup,
+}
+
+/// Owns the passes and the uploaded light field. One renderer per device and light field; the
+/// per-view targets are (re)created for each new image size.
+pub struct Renderer {
+    globals: wgpu::Buffer,
+    globals_bind_group: wgpu::BindGroup,
+    globals_layout: wgpu::BindGroupLayout,
+    light_field: GpuLightField,
+    direction_ids: DirectionIdsPass,
+    barycentrics: BarycentricsPass,
+    face_id: FaceIdPass,
+    position: PositionPass,
+    final_radiance: FinalRadiancePass,
+    display: DisplayPass,
+    frame: Option<Frame>,
+    timer: Option<GpuTimer>,
+    debug_view: Pass,
+    sky: glam::Vec3,
+}
+
+impl Renderer {
+    /// Uploads `lf` and builds the pipelines.
+    pub fn new(ctx: &GpuContext, lf: &LightField) -> Result<Self, RenderError> {
+        let device = &ctx.device;
+        let light_field = GpuLightField::new(device, &ctx.queue, lf)?;
+        let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("Renderer::globals_layout"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX
+                    | wgpu::ShaderStages::FRAGMENT
+                    | wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<RenderGlobals>() as u64
+                    ),
+                },
+                count: None,
+            }],
+        });
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("Renderer::globals"),
+            size: std::mem::size_of::<RenderGlobals>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let globals_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("Renderer::globals_bind_group"),
+            layout: &globals_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            }],
+        });
+        Ok(Self {
+            direction_ids: DirectionIdsPass::new(device, &globals_layout, &light_field),
+            barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
+            face_id: FaceIdPass::new(device, &globals_layout, &light_field),
+            position: PositionPass::new(device, &globals_layout, &light_field),
+            final_radiance: FinalRadiancePass::new(device, &globals_layout),
+            display: DisplayPass::new(device, &globals_layout),
+            timer: GpuTimer::new(device, &ctx.queue, TIMED_PASSES.len() as u32),
+            globals,
+            globals_bind_group,
+            globals_layout,
+            light_field,
+            frame: None,
+            debug_view: Pass::FinalRadiance,
+            sky: lf.params.sky,
+        })
+    }
+
+    /// The pass output the display shows ([`Pass::FinalRadiance`] = the image itself).
+    pub fn debug_view(&self) -> Pass {
+        self.debug_view
+    }
+
+    /// Selects the pass output [`Renderer::render_to_view`] displays.
+    pub fn set_debug_view(&mut self, pass: Pass) {
+        self.debug_view = pass;
+    }
+
+    /// Bytes of light-field data on the GPU (geometry, faces, atlas, direction mesh).
+    pub fn light_field_bytes(&self) -> u64 {
+        self.light_field.bytes
+    }
+
+    /// Bytes of the radiance atlas on the GPU.
+    pub fn radiance_bytes(&self) -> u64 {
+        self.light_field.radiance_bytes
+    }
+
+    /// Bytes of the per-view targets (0 before the first frame).
+    pub fn target_bytes(&self) -> u64 {
+        self.frame.as_ref().map_or(0, |f| {
+            u64::from(f.targets.width) * u64::from(f.targets.height) * (16 * 5 + 4 + 4)
+        })
+    }
+
+    /// Whether GPU pass times are available (device has `TIMESTAMP_QUERY`).
+    pub fn has_pass_times(&self) -> bool {
+        self.timer.is_some()
+    }
+
+    /// Milliseconds per pass ([`TIMED_PASSES`] order) of a recent frame rendered with
+    /// [`Renderer::render_to_view`], once available. Five entries when the frame showed the
+    /// final image (display fused into pass 5), six with a debug view.
+    pub fn pass_times(&self) -> Option<&[f64]> {
+        self.timer.as_ref().and_then(|t| t.latest())
+    }
+
+    /// Makes sure the targets have the given size.
+    fn ensure_frame(
+        &mut self,
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+    ) -> Result<(), RenderError> {
+        if self
+            .frame
+            .as_ref()
+            .is_some_and(|f| f.targets.width == width && f.targets.height == height)
+        {
+            return Ok(());
+        }
+        let targets = Targets::new(device, width, height)?;
+        let final_bind_group = self
+            .final_radiance
+            .bind(device, &targets, &self.light_field);
+        let display_bind_group = self.display.bind(device, &targets);
+        self.frame = Some(Frame {
+            targets,
+            final_bind_group,
+            display_bind_group,
+        });
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn write_globals(
+        &self,
+        queue: &wgpu::Queue,
+        camera: &CameraView,
+        width: u32,
+        height: u32,
+        sample: u32,
+        samples: u32,
+        jitter: Vec2,
+        display: &Display,
+    ) {
+        let g = RenderGlobals {
+            view_proj: camera.view_proj(width, height, jitter).to_cols_array_2d(),
+            dir_view_proj: camera
+                .direction_view_proj(width, height, jitter)
+                .to_cols_array_2d(),
+            eye: camera.position.extend(1.0).into(),
+            sky: self.sky.extend(0.0).into(),
+            width,
+            height,
+            sample_index: sample,
+            sample_count: samples,
+            sample_weight: 1.0 / samples as f32,
+            face_count: self.light_field.face_count,
+            view: display.view as u32,
+            tonemap: display.tonemap as u32,
+            exposure: display.exposure,
+            encode_srgb: u32::from(display::needs_srgb_encoding(display.format)),
+            _pad0: 0,
+            _pad1: 0,
+        };
+        queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
+    }
+
+    /// Encodes passes 1–4 (targets must exist). `timed`: write timestamps.
+    fn encode_geometry_passes(&self, encoder: &mut wgpu::CommandEncoder, timed: bool) {
+        let frame = self.frame.as_ref().expect("ensure_frame before encoding");
+        let t = self.timer.as_ref().filter(|_| timed);
+        let (g, lf, tg) = (&self.globals_bind_group, &self.light_field, &frame.targets);
+        self.direction_ids
+            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(0)));
+        self.barycentrics
+            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(1)));
+        self.face_id
+            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(2)));
+        self.position
+            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(3)));
+    }
+
+    /// Encodes the five passes, pass 5 into the radiance target only.
+    fn encode_passes(&self, encoder: &mut wgpu::CommandEncoder, timed: bool) {
+        self.encode_geometry_passes(encoder, timed);
+        let frame = self.frame.as_ref().expect("ensure_frame before encoding");
+        let t = self.timer.as_ref().filter(|_| timed);
+        self.final_radiance.encode(
+            encoder,
+            &self.globals_bind_group,
+            &frame.final_bind_group,
+            &frame.targets,
+            t.map(|t| t.render_writes(4)),
+        );
+    }
+
+    /// Renders `spp` jittered samples (see [`sample_offsets`]) of `camera` and leaves their mean
+    /// in the radiance target. One submission per sample.
+    fn render_samples(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &CameraView,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<(), RenderError> {
+        self.ensure_frame(&ctx.device, width, height)?;
+        let offsets = sample_offsets(spp);
+        for (i, jitter) in offsets.iter().enumerate() {
+            self.write_globals(
+                &ctx.queue,
+                camera,
+                width,
+                height,
+                i as u32,
+                offsets.len() as u32,
+                *jitter,
+                &Display::RAW,
+            );
+            let mut encoder = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("Renderer::still_encoder"),
+                });
+            self.encode_passes(&mut encoder, false);
+            ctx.queue.submit(Some(encoder.finish()));
+        }
+        Ok(())
+    }
+
+    /// Renders a still: each pixel is the mean radiance of `spp` stratified sub-pixel samples
+    /// (box filter), linear RGB, row-major with row 0 at the top.
+    pub fn render_still(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &CameraView,
+        width: u32,
+        height: u32,
+        spp: u32,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        self.render_samples(ctx, camera, width, height, spp)?;
+        let t = &self.frame.as_ref().expect("frame exists").targets;
+        let px: Vec<[f32; 4]> = if spp > 1 {
+            crate::readback::read_buffer(&ctx.device, &ctx.queue, &t.accum)?
+        } else {
+            targets::read_texture(&ctx.device, &ctx.queue, &t.radiance, 16)?
+        };
+        Ok(px.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    /// Renders one centred sample and reads every pass output back.
+    pub fn render_frame_data(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &CameraView,
+        width: u32,
+        height: u32,
+    ) -> Result<FrameData, RenderError> {
+        self.render_samples(ctx, camera, width, height, 1)?;
+        let (d, q) = (&ctx.device, &ctx.queue);
+        let t = &self.frame.as_ref().expect("frame exists").targets;
+        Ok(FrameData {
+            width,
+            height,
+            direction_ids: targets::read_texture(d, q, &t.direction_ids, 16)?,
+            barycentrics: targets::read_texture(d, q, &t.barycentrics, 16)?,
+            face_id: targets::read_texture(d, q, &t.face_id, 4)?,
+            position: targets::read_texture(d, q, &t.position, 16)?,
+            radiance: targets::read_texture(d, q, &t.radiance, 16)?,
+        })
+    }
+
+    /// A still of `pass`'s debug view as shown on screen (exposure 1, no tonemap for the final
+    /// radiance, which then equals [`Renderer::render_still`]). Linear RGB, row 0 at the top.
+    pub fn render_debug_still(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &CameraView,
+        width: u32,
+        height: u32,
+        spp: u32,
+        pass: Pass,
+    ) -> Result<Vec<[f32; 3]>, RenderError> {
+        if pass == Pass::FinalRadiance {
+            return self.render_still(ctx, camera, width, height, spp);
+        }
+        // Debug outputs (ids, weights, positions) are not averaged: one centred sample.
+        self.render_samples(ctx, camera, width, height, 1)?;
+        let format = wgpu::TextureFormat::Rgba32Float;
+        let display = Display {
+            view: pass,
+            ..Display::RAW
+        };
+        self.write_globals(
+            &ctx.queue,
+            camera,
+            width,
+            height,
+            0,
+            1,
+            Vec2::splat(0.5),
+            &display,
+        );
+        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("Display::still_target"),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("Display::still_encoder"),
+            });
+        let frame = self.frame.as_ref().expect("frame exists");
+        self.display.encode(
+            &ctx.device,
+            &mut encoder,
+            &self.globals_bind_group,
+            &frame.display_bind_group,
+            &view,
+            format,
+            None,
+        );
+        ctx.queue.submit(Some(encoder.finish()));
+        let px: Vec<[f32; 4]> = targets::read_texture(&ctx.device, &ctx.queue, &texture, 16)?;
+        Ok(px.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    /// Encodes one interactive frame into `encoder`: the five passes (one sample at the pixel
+    /// centres) and the selected debug view on `target` (`width × height`, format `format`),
+    /// with `exposure` (a linear factor) and `tonemap` for the final image. For the final image
+    /// pass 5 writes `target` itself (fused display); debug views add the display pass. The
+    /// caller submits `encoder` (it may add e.g. a UI pass first) and then calls
+    /// [`Renderer::frame_submitted`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_to_view(
+        &mut self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        camera: &CameraView,
+        target: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+        width: u32,
+        height: u32,
+        exposure: f32,
+        tonemap: Tonemap,
+    ) -> Result<(), RenderError> {
+        self.ensure_frame(&ctx.device, width, height)?;
+        let display = Display {
+            view: self.debug_view,
+            exposure,
+            tonemap,
+            format,
+        };
+        self.write_globals(
+            &ctx.queue,
+            camera,
+            width,
+            height,
+            0,
+            1,
+            Vec2::splat(0.5),
+            &display,
+        );
+        self.encode_geometry_passes(encoder, true);
+        let frame = self.frame.as_ref().expect("frame exists");
+        let timer = self.timer.as_ref();
+        let g = &self.globals_bind_group;
+        if self.debug_view == Pass::FinalRadiance {
+            self.final_radiance.encode_present(
+                &ctx.device,
+                encoder,
+                g,
+                &frame.final_bind_group,
+                &frame.targets,
+                target,
+                format,
+                timer.map(|t| t.render_writes(4)),
+            );
+        } else {
+            self.final_radiance.encode(
+                encoder,
+                g,
+                &frame.final_bind_group,
+                &frame.targets,
+                timer.map(|t| t.render_writes(4)),
+            );
+            self.display.encode(
+                &ctx.device,
+                encoder,
+                g,
+                &frame.display_bind_group,
+                target,
+                format,
+                timer.map(|t| t.render_writes(5)),
+            );
+        }
+        if let Some(t) = self.timer.as_mut() {
+            // The fused path has no display pass: its queries stay unwritten and unread.
+            let timed = if self.debug_view == Pass::FinalRadiance {
+                5
+            } else {
+                6
+            };
+            t.resolve(encoder, timed);
+        }
+        Ok(())
+    }
+
+    /// Call once after submitting a frame from [`Renderer::render_to_view`] (collects GPU timings).
+    pub fn frame_submitted(&mut self, ctx: &GpuContext) {
+        if let Some(t) = self.timer.as_mut() {
+            t.after_submit(&ctx.device);
+        }
+    }
+
+    /// Bind-group layout of group 0 (for callers adding their own passes).
+    pub fn globals_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.globals_layout
+    }
+}
+
+// ----- helpers shared by the pass modules (each pass still owns its objects and labels) -----
+
+pub(crate) fn color_attachment(
+    view: &wgpu::TextureView,
+    clear: wgpu::Color,
+) -> wgpu::RenderPassColorAttachment<'_> {
+    wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(clear),
+            store: wgpu::StoreOp::Store,
+        },
+    }
+}
+
+pub(crate) fn storage_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    read_only: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn texture_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    sample_type: wgpu::TextureSampleType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Texture {
+            sample_type,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Group-1 layout and bind group of a sphere-mesh pass (1, 2): vertices, triangles.
+fn sphere_pass_layout(
+    device: &wgpu::Device,
+    pass: &str,
+    lf: &GpuLightField,
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let vis = wgpu::ShaderStages::VERTEX;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(&format!("{pass}::pass_layout")),
+        entries: &[storage_entry(0, vis, true), storage_entry(1, vis, true)],
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(&format!("{pass}::pass_bind_group")),
+        layout: &layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: lf.sphere_vertices.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: lf.sphere_triangles.as_entire_binding(),
+            },
+        ],
+    });
+    (layout, bind_group)
+}
+
+/// Group-1 layout and bind group of a scene-geometry pass (3, 4): triangles.
+fn geometry_pass_layout(
+    device: &wgpu::Device,
+    pass: &str,
+    lf: &GpuLightField,
+) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(&format!("{pass}::pass_layout")),
+        entries: &[storage_entry(0, wgpu::ShaderStages::VERTEX, true)],
+    });
+    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(&format!("{pass}::pass_bind_group")),
+        layout: &layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: lf.triangles.as_entire_binding(),
+        }],
+    });
+    (layout, bind_group)
+}
+
+/// A vertex-pulling render pipeline (no vertex buffers, no culling) writing one colour target.
+fn render_pipeline(
+    device: &wgpu::Device,
+    pass: &str,
+    shader: &crate::shaders::Shader,
+    globals_layout: &wgpu::BindGroupLayout,
+    pass_layout: &wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+    depth: Option<wgpu::DepthStencilState>,
+) -> wgpu::RenderPipeline {
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(&format!("{pass}::pipeline_layout")),
+        bind_group_layouts: &[Some(globals_layout), Some(pass_layout)],
+        immediate_size: 0,
+    });
+    let module = shader.module(device);
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(&format!("{pass}::pipeline")),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: depth,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+fn sphere_pipeline(
+    device: &wgpu::Device,
+    pass: &str,
+    shader: &crate::shaders::Shader,
+    globals_layout: &wgpu::BindGroupLayout,
+    pass_layout: &wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    render_pipeline(
+        device,
+        pass,
+        shader,
+        globals_layout,
+        pass_layout,
+        format,
+        None,
+    )
+}
+
+fn geometry_pipeline(
+    device: &wgpu::Device,
+    pass: &str,
+    shader: &crate::shaders::Shader,
+    globals_layout: &wgpu::BindGroupLayout,
+    pass_layout: &wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+    depth: wgpu::DepthStencilState,
+) -> wgpu::RenderPipeline {
+    render_pipeline(
+        device,
+        pass,
+        shader,
+        globals_layout,
+        pass_layout,
+        format,
+        Some(depth),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::upload::{ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW};
+    use crate::shaders;
+
+    fn block<'a>(source: &'a str, begin: &str, end: &str) -> &'a str {
+        let i = source.find(begin).expect("begin marker");
+        let j = source[i..].find(end).expect("end marker") + i;
+        &source[source[i..].find('\n').unwrap() + i..j]
+    }
+
+    /// The window's fused display (pass 5) and the display pass map radiance to colour alike.
+    #[test]
+    fn display_mapping_is_identical_in_both_shaders() {
+        let (begin, end) = (
+            "// ---- begin display mapping",
+            "// ---- end display mapping",
+        );
+        assert_eq!(
+            block(shaders::RENDER_DISPLAY.source, begin, end),
+            block(shaders::RENDER_FINAL_RADIANCE.source, begin, end)
+        );
+    }
+
+    /// The texture layouts of `upload.rs` are the ones pass 5 reads.
+    #[test]
+    fn shader_layout_constants_match_rust() {
+        let src = shaders::RENDER_FINAL_RADIANCE.source;
+        for (name, value) in [
+            ("ATLAS_WIDTH", ATLAS_WIDTH),
+            ("FACE_RECORD_TEXELS", FACE_RECORD_TEXELS),
+            ("FACES_PER_ROW", FACES_PER_ROW),
+        ] {
+            let decl = format!("const {name}: u32 = {value}u;");
+            assert!(
+                src.contains(&decl),
+                "render_final_radiance.wgsl lacks `{decl}`"
+            );
+        }
+        assert!(src.contains(&format!("const NO_FACE: u32 = 0x{:x}u;", super::NO_FACE)));
+    }
+}

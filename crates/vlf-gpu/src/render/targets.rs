@@ -1,0 +1,162 @@
+//! The per-pixel outputs of the five passes, sized to the view, and texture readback.
+
+use super::RenderError;
+
+/// Pass 1 output: three sphere-vertex ids + triangle index.
+pub const DIRECTION_IDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
+/// Pass 2 output: three barycentric weights (w unused).
+pub const BARYCENTRICS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Pass 3 output: face index, `NO_FACE` for background.
+pub const FACE_ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
+/// Pass 4 output: VLF position (xyz), w = 1 where a face is seen.
+pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Pass 5 output: radiance of the current sample (rgb), a = 1 where a face is seen.
+pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Depth of passes 3–4 (reverse-Z: cleared to 0, greater is nearer).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Textures and buffers holding one frame's pass outputs.
+pub struct Targets {
+    pub width: u32,
+    pub height: u32,
+    pub direction_ids: wgpu::Texture,
+    pub direction_ids_view: wgpu::TextureView,
+    pub barycentrics: wgpu::Texture,
+    pub barycentrics_view: wgpu::TextureView,
+    pub face_id: wgpu::Texture,
+    pub face_id_view: wgpu::TextureView,
+    pub position: wgpu::Texture,
+    pub position_view: wgpu::TextureView,
+    pub depth_view: wgpu::TextureView,
+    /// Pass 5 output: radiance of the current sample.
+    pub radiance: wgpu::Texture,
+    pub radiance_view: wgpu::TextureView,
+    /// Mean radiance over a still's samples (vec4 per pixel: rgb, a = coverage), row 0 at the
+    /// top; written only when a still has more than one sample.
+    pub accum: wgpu::Buffer,
+}
+
+impl Targets {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<Self, RenderError> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::Size { width, height, max });
+        }
+        let radiance_bytes = u64::from(width) * u64::from(height) * 16;
+        let max_binding = device.limits().max_storage_buffer_binding_size;
+        if radiance_bytes > max_binding {
+            return Err(RenderError::TooLarge {
+                what: "FinalRadiance::accumulation".into(),
+                bytes: radiance_bytes,
+                limit: max_binding,
+            });
+        }
+        let texture = |label: &str, format| {
+            let written = wgpu::TextureUsages::RENDER_ATTACHMENT;
+            let usage =
+                written | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
+            let t = device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            });
+            let v = t.create_view(&wgpu::TextureViewDescriptor {
+                label: Some(&format!("{label}_view")),
+                ..Default::default()
+            });
+            (t, v)
+        };
+        let (direction_ids, direction_ids_view) =
+            texture("DirectionIds::target", DIRECTION_IDS_FORMAT);
+        let (barycentrics, barycentrics_view) =
+            texture("Barycentrics::target", BARYCENTRICS_FORMAT);
+        let (face_id, face_id_view) = texture("FaceId::target", FACE_ID_FORMAT);
+        let (position, position_view) = texture("Position::target", POSITION_FORMAT);
+        let (_, depth_view) = texture("FaceId::depth", DEPTH_FORMAT);
+        let (radiance, radiance_view) = texture("FinalRadiance::target", RADIANCE_FORMAT);
+        let accum = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("FinalRadiance::accumulation"),
+            size: radiance_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Ok(Self {
+            width,
+            height,
+            direction_ids,
+            direction_ids_view,
+            barycentrics,
+            barycentrics_view,
+            face_id,
+            face_id_view,
+            position,
+            position_view,
+            depth_view,
+            radiance,
+            radiance_view,
+            accum,
+        })
+    }
+}
+
+/// Reads a whole 2D texture of `texel_bytes`-byte texels back as `T`s, row 0 first, blocking.
+pub fn read_texture<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    texel_bytes: u32,
+) -> Result<Vec<T>, RenderError> {
+    let (w, h) = (texture.width(), texture.height());
+    let row = w * texel_bytes;
+    let padded =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("Readback::texture_copy"),
+        size: u64::from(padded) * u64::from(h),
+        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("Readback::texture_encoder"),
+    });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    queue.submit(Some(encoder.finish()));
+    // Texels are whole 32-bit words: read as u32 so the rows are aligned for any 4-byte T.
+    let words: Vec<u32> = crate::readback::read_buffer(device, queue, &buffer)?;
+    let mut out = Vec::with_capacity((w * h) as usize);
+    for y in 0..h as usize {
+        let start = y * (padded / 4) as usize;
+        let row_words = &words[start..start + (row / 4) as usize];
+        out.extend_from_slice(bytemuck::cast_slice::<u32, T>(row_words));
+    }
+    Ok(out)
+}

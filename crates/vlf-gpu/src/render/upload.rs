@@ -1,0 +1,331 @@
+//! The light field uploaded for rendering. Validated on upload so user data can never make a pass
+//! read out of range.
+//!
+//! * Geometry and the direction set's sphere mesh: storage buffers, read by vertex shaders only
+//!   (a few invocations per triangle).
+//! * Per-pixel data of pass 5 — the radiance atlas and the face records — are 2D textures read
+//!   with `textureLoad`: on lavapipe a per-pixel, non-uniformly indexed storage-buffer read costs
+//!   several times a texel fetch (measured: reading one `vec4` per pixel from a storage buffer
+//!   took ~14 ms at 1024×768, a texture fetch a fraction of that).
+//!
+//! Both textures are linear arrays wrapped into rows: element `i` is texel
+//! `(i % width, i / width)`.
+//!
+//! * Atlas (`Rgba32Float`, [`ATLAS_WIDTH`] wide): texel `i` = `LightField::radiance[i]`.
+//! * Face records (`Rgba32Uint`, [`FACE_RECORD_TEXELS`] texels per face, [`FACES_PER_ROW`] faces
+//!   per row; floats stored as their bits):
+//!   0: normal.xyz, kind · 1: origin.xyz, texel_size · 2: u.xyz, width · 3: v.xyz, height ·
+//!   4: texel_base, 0, 0, 0.
+//! * Mirror tiles (scenes with mirror/mixed faces; 1-texel dummies otherwise):
+//!   - tile words (`Rgba32Uint`, [`ATLAS_WIDTH`] wide, one u32 per *channel*, i.e. word `k` is
+//!     channel `k % 4` of texel `k / 4`): a header `[l, m, n, face_slot_off, index_start_off,
+//!     tile_ids_off, coverage_off, words_per_slot]`, then the packed arrays of
+//!     `vlf_core::bake::tiles::TileIndex` at those offsets;
+//!   - tile values (`Rgba32Float`, [`ATLAS_WIDTH`] wide): `MirrorTiles::radiance`;
+//!   - frames (`Rgba32Float`, 2 texels per fixed direction: u, v of its twisted PSF frame).
+
+use vlf_core::bake::{BakeFace, BakeTriangle};
+use vlf_core::lightfield::LightField;
+use wgpu::util::DeviceExt;
+
+use super::RenderError;
+
+/// Width of the atlas texture (elements per row).
+pub const ATLAS_WIDTH: u32 = 4096;
+/// Texels per face record.
+pub const FACE_RECORD_TEXELS: u32 = 5;
+/// Face records per row of the face texture.
+pub const FACES_PER_ROW: u32 = 1024;
+
+/// GPU copies of a [`LightField`].
+pub struct GpuLightField {
+    pub triangles: wgpu::Buffer,
+    pub triangle_count: u32,
+    pub face_count: u32,
+    /// Face records (see the module docs).
+    pub faces_view: wgpu::TextureView,
+    /// The radiance atlas (see the module docs).
+    pub atlas_view: wgpu::TextureView,
+    /// Mirror tile index words, values and direction frames (see the module docs).
+    pub tile_words_view: wgpu::TextureView,
+    pub tile_values_view: wgpu::TextureView,
+    pub frames_view: wgpu::TextureView,
+    /// Unit sphere-vertex positions (vec4, w unused), indexed by sphere-vertex id.
+    pub sphere_vertices: wgpu::Buffer,
+    /// Sphere triangles (vec4<u32>: three sphere-vertex ids, w unused).
+    pub sphere_triangles: wgpu::Buffer,
+    pub sphere_triangle_count: u32,
+    /// Bytes of all buffers and textures above.
+    pub bytes: u64,
+    /// Bytes of the radiance atlas alone.
+    pub radiance_bytes: u64,
+}
+
+/// The face record texels of `f` (see the module docs).
+pub fn face_record(f: &BakeFace) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
+    let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
+    [
+        b(f.normal, f.kind),
+        b(f.origin, f.texel_size.to_bits()),
+        b(f.u, f.width),
+        b(f.v, f.height),
+        [f.texel_base, 0, 0, 0],
+    ]
+}
+
+impl GpuLightField {
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        lf: &LightField,
+    ) -> Result<Self, RenderError> {
+        validate(lf)?;
+        let max = device.limits().max_storage_buffer_binding_size;
+        let mut bytes = 0u64;
+        let mut buffer = |label: &str, data: &[u8]| -> Result<wgpu::Buffer, RenderError> {
+            let size = data.len() as u64;
+            if size > max {
+                return Err(RenderError::TooLarge {
+                    what: label.to_owned(),
+                    bytes: size,
+                    limit: max,
+                });
+            }
+            bytes += size;
+            // wgpu cannot bind empty buffers: keep one zeroed element's worth.
+            let zeros = [0u8; 48];
+            let contents = if data.is_empty() { &zeros[..] } else { data };
+            Ok(
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE,
+                }),
+            )
+        };
+        let triangles = buffer(
+            "Renderer::triangles",
+            bytemuck::cast_slice::<BakeTriangle, u8>(&lf.triangles),
+        )?;
+        let verts: Vec<[f32; 4]> = lf
+            .directions
+            .sphere_vertices()
+            .iter()
+            .map(|p| p.extend(0.0).into())
+            .collect();
+        let tris: Vec<[u32; 4]> = lf
+            .directions
+            .sphere_triangles()
+            .iter()
+            .map(|t| [t[0], t[1], t[2], 0])
+            .collect();
+        let sphere_vertices = buffer("Renderer::sphere_vertices", bytemuck::cast_slice(&verts))?;
+        let sphere_triangles = buffer("Renderer::sphere_triangles", bytemuck::cast_slice(&tris))?;
+
+        let records: Vec<[u32; 4]> = lf.faces.iter().flat_map(face_record).collect();
+        let faces_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::face_records",
+            wgpu::TextureFormat::Rgba32Uint,
+            FACE_RECORD_TEXELS * FACES_PER_ROW,
+            bytemuck::cast_slice(&records),
+            &mut bytes,
+        )?;
+        let atlas_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::radiance_atlas",
+            wgpu::TextureFormat::Rgba32Float,
+            ATLAS_WIDTH,
+            bytemuck::cast_slice(&lf.radiance),
+            &mut bytes,
+        )?;
+        let (words, values, frames) = match &lf.tiles {
+            Some(t) => {
+                let ix = &t.index;
+                let mut w = vec![0u32; 8];
+                let push = |part: &[u32], w: &mut Vec<u32>| {
+                    let off = w.len() as u32;
+                    w.extend_from_slice(part);
+                    off
+                };
+                let o0 = push(&ix.face_slot, &mut w);
+                let o1 = push(&ix.index_start, &mut w);
+                let o2 = push(&ix.tile_ids, &mut w);
+                let o3 = push(&ix.coverage, &mut w);
+                w[..8].copy_from_slice(&[
+                    ix.directions,
+                    ix.m,
+                    ix.n,
+                    o0,
+                    o1,
+                    o2,
+                    o3,
+                    vlf_core::bake::tiles::words_per_slot(ix.m) as u32,
+                ]);
+                w.resize(w.len().next_multiple_of(4), 0);
+                let frames: Vec<[f32; 4]> = vlf_core::bake::tiles::fixed_frames(&lf.directions)
+                    .iter()
+                    .flat_map(|f| [f.u.extend(0.0).to_array(), f.v.extend(0.0).to_array()])
+                    .collect();
+                (w, t.radiance.clone(), frames)
+            }
+            None => (vec![0u32; 4], Vec::new(), Vec::new()),
+        };
+        let tile_words_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::tile_words",
+            wgpu::TextureFormat::Rgba32Uint,
+            ATLAS_WIDTH,
+            bytemuck::cast_slice(&words),
+            &mut bytes,
+        )?;
+        let tile_values_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::tile_values",
+            wgpu::TextureFormat::Rgba32Float,
+            ATLAS_WIDTH,
+            bytemuck::cast_slice(&values),
+            &mut bytes,
+        )?;
+        let frames_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::frames",
+            wgpu::TextureFormat::Rgba32Float,
+            ATLAS_WIDTH,
+            bytemuck::cast_slice(&frames),
+            &mut bytes,
+        )?;
+        Ok(Self {
+            tile_words_view,
+            tile_values_view,
+            frames_view,
+            triangles,
+            triangle_count: lf.triangles.len() as u32,
+            face_count: lf.faces.len() as u32,
+            faces_view,
+            atlas_view,
+            sphere_vertices,
+            sphere_triangles,
+            sphere_triangle_count: tris.len() as u32,
+            bytes,
+            radiance_bytes: lf.radiance_bytes() as u64,
+        })
+    }
+}
+
+/// A 16-byte-texel 2D texture holding `data` wrapped into rows of `width` elements (narrower
+/// when there are fewer elements; at least one texel).
+fn wrapped_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    format: wgpu::TextureFormat,
+    width: u32,
+    data: &[[u32; 4]],
+    bytes: &mut u64,
+) -> Result<wgpu::TextureView, RenderError> {
+    let n = data.len().max(1) as u64;
+    let width = (n.min(u64::from(width))) as u32;
+    let rows = n.div_ceil(u64::from(width));
+    let max = device.limits().max_texture_dimension_2d;
+    if rows > u64::from(max) {
+        return Err(RenderError::TooLarge {
+            what: label.to_owned(),
+            bytes: n * 16,
+            limit: u64::from(width) * u64::from(max) * 16,
+        });
+    }
+    let rows = rows as u32;
+    let mut texels = data.to_vec();
+    texels.resize((width * rows) as usize, [0; 4]);
+    *bytes += texels.len() as u64 * 16;
+    let texture = device.create_texture_with_data(
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height: rows,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        bytemuck::cast_slice(&texels),
+    );
+    Ok(texture.create_view(&wgpu::TextureViewDescriptor {
+        label: Some(&format!("{label}_view")),
+        ..Default::default()
+    }))
+}
+
+/// Checks the index relations the shaders rely on.
+fn validate(lf: &LightField) -> Result<(), RenderError> {
+    let invalid = |msg: String| Err(RenderError::InvalidLightField(msg));
+    if lf.faces.len() >= u32::MAX as usize / FACE_RECORD_TEXELS as usize
+        || lf.triangles.len() > (u32::MAX / 3) as usize
+        || lf.radiance.len() > u32::MAX as usize
+    {
+        return invalid(format!(
+            "{} faces / {} triangles / {} texels is more than the renderer can index",
+            lf.faces.len(),
+            lf.triangles.len(),
+            lf.radiance.len()
+        ));
+    }
+    for (i, t) in lf.triangles.iter().enumerate() {
+        if t.face as usize >= lf.faces.len() {
+            return invalid(format!(
+                "triangle {i} names face {} but there are {} faces",
+                t.face,
+                lf.faces.len()
+            ));
+        }
+        if ![t.p0, t.p1, t.p2].iter().flatten().all(|x| x.is_finite()) {
+            return invalid(format!("triangle {i} has a non-finite vertex"));
+        }
+    }
+    for (i, f) in lf.faces.iter().enumerate() {
+        let end = u64::from(f.texel_base) + 2 * u64::from(f.width) * u64::from(f.height);
+        if f.width == 0 || f.height == 0 {
+            return invalid(format!(
+                "face {i} has an empty chart ({}×{})",
+                f.width, f.height
+            ));
+        }
+        if end > lf.radiance.len() as u64 {
+            return invalid(format!(
+                "face {i} needs radiance texels up to {end} but the atlas has {}",
+                lf.radiance.len()
+            ));
+        }
+        if !(f.texel_size.is_finite() && f.texel_size > 0.0) {
+            return invalid(format!("face {i} has texel size {}", f.texel_size));
+        }
+    }
+    if let Some(t) = &lf.tiles {
+        // The format validates the index on read; a LightField built in memory may not be.
+        let ix = &t.index;
+        if ix.face_slot.len() != lf.faces.len()
+            || t.radiance.len() != ix.value_len()
+            || ix.directions as usize != lf.directions.len()
+            || ix.index_start.len() != ix.faces.len() * ix.directions as usize + 1
+            || ix.index_start.last().map(|&x| x as usize) != Some(ix.tile_ids.len())
+            || ix.m == 0
+            || !ix.n.is_multiple_of(ix.m)
+        {
+            return invalid("the mirror tile index does not match the light field".into());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,319 @@
+// Render pass 5 of 5 (paper §4): final radiance, one fragment per pixel (a triangle covering
+// the viewport). Entry points: fs_main writes the radiance target; fs_present (the window's
+// final image) also writes the exposed, tonemapped colour onto the window's surface.
+// Per-pixel data is read from textures, not storage buffers (much faster on lavapipe); the
+// face records and the atlas are linear arrays wrapped into texture rows (see
+// crates/vlf-gpu/src/render/upload.rs for their layout).
+//
+// * No face (pass 3 = u32::MAX): the bake's sky radiance.
+// * Diffuse faces (kind 0): the face's total outgoing radiance read bilinearly from the atlas at
+//   the pass-4 position, on the side facing the camera (side 0 = front/normal side). The chart
+//   is a width × height grid of square texels of edge texel_size on the face's (origin, u, v)
+//   basis; texel centres sit at (i + 0.5, j + 0.5) · texel_size. Bilinear weights are taken in
+//   chart coordinates with the texel indices clamped to the chart (clamp-to-edge), so filtering
+//   never crosses into another face's or side's texels. Uncovered texels (outside the polygon)
+//   are filled by the bake's dilation, so plain bilinear filtering is correct at polygon edges.
+// * Mirror / mixed faces (kind 1, 2): the diffuse texels (the diffuse part of mixed faces) plus
+//   the specular part from the sparse per-direction tiles: radiance towards the eye travels
+//   against the view ray, so the three sphere vertices of pass 1 are taken in the opposite
+//   sense, with the pass-2 weights; for each, the position maps into that direction's ray grid
+//   and the tile values of the covered cells around it are filtered bilinearly
+//   (vlf_gpu::render::final_radiance::specular_radiance mirrors this on the CPU).
+//
+// Output: this sample's radiance (rgb; a = 1 where a face is seen) in `radiance_out`. Stills
+// with several jittered samples (sample_count > 1) also accumulate it into `accum` with weight
+// sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
+// pixel holds the mean over its square.
+
+// Per-frame globals shared by every render pass (mirrors vlf_gpu::layout::RenderGlobals).
+struct RenderGlobals {
+    view_proj: mat4x4<f32>,
+    dir_view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+    sky: vec4<f32>,
+    width: u32,
+    height: u32,
+    sample_index: u32,
+    sample_count: u32,
+    sample_weight: f32,
+    face_count: u32,
+    view: u32,
+    tonemap: u32,
+    exposure: f32,
+    encode_srgb: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> g: RenderGlobals;
+
+const NO_FACE: u32 = 0xffffffffu;
+const FACE_DIFFUSE: u32 = 0u;
+// Must match upload.rs.
+const ATLAS_WIDTH: u32 = 4096u;
+const FACE_RECORD_TEXELS: u32 = 5u;
+const FACES_PER_ROW: u32 = 1024u;
+
+@group(1) @binding(0) var direction_ids: texture_2d<u32>;
+@group(1) @binding(1) var barycentrics: texture_2d<f32>;
+@group(1) @binding(2) var face_ids: texture_2d<u32>;
+@group(1) @binding(3) var positions: texture_2d<f32>;
+// Face records: 5 texels per face (normal, kind | origin, texel_size | u, width | v, height |
+// texel_base), floats as bits.
+@group(1) @binding(4) var face_records: texture_2d<u32>;
+// Total outgoing radiance per atlas texel (rgb; a unused), both sides of every face.
+@group(1) @binding(5) var atlas: texture_2d<f32>;
+// Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
+@group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
+// Mirror tiles (see upload.rs): index words (4 per texel), values, direction frames (u, v).
+@group(1) @binding(7) var tile_words: texture_2d<u32>;
+@group(1) @binding(8) var tile_values: texture_2d<f32>;
+@group(1) @binding(9) var frames: texture_2d<f32>;
+
+struct Face {
+    normal: vec3<f32>,
+    kind: u32,
+    origin: vec3<f32>,
+    texel_size: f32,
+    u: vec3<f32>,
+    width: u32,
+    v: vec3<f32>,
+    height: u32,
+    texel_base: u32,
+}
+
+fn face_texel(face: u32, k: u32) -> vec4<u32> {
+    let x = (face % FACES_PER_ROW) * FACE_RECORD_TEXELS + k;
+    return textureLoad(face_records, vec2<u32>(x, face / FACES_PER_ROW), 0);
+}
+
+fn load_face(face: u32) -> Face {
+    let r0 = face_texel(face, 0u);
+    let r1 = face_texel(face, 1u);
+    let r2 = face_texel(face, 2u);
+    let r3 = face_texel(face, 3u);
+    let r4 = face_texel(face, 4u);
+    return Face(
+        bitcast<vec3<f32>>(r0.xyz), r0.w,
+        bitcast<vec3<f32>>(r1.xyz), bitcast<f32>(r1.w),
+        bitcast<vec3<f32>>(r2.xyz), r2.w,
+        bitcast<vec3<f32>>(r3.xyz), r3.w,
+        r4.x,
+    );
+}
+
+fn atlas_texel(i: u32) -> vec3<f32> {
+    return textureLoad(atlas, vec2<u32>(i % ATLAS_WIDTH, i / ATLAS_WIDTH), 0).rgb;
+}
+
+// Atlas radiance of face `f` at plane point `p` on `side`, bilinear within the chart.
+// Mirrored exactly on the CPU by vlf_gpu::render::final_radiance::diffuse_radiance.
+fn diffuse_radiance(f: Face, side: u32, p: vec3<f32>) -> vec3<f32> {
+    let d = p - f.origin;
+    let x = dot(d, f.u) / f.texel_size - 0.5;
+    let y = dot(d, f.v) / f.texel_size - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let maxi = vec2<i32>(i32(f.width) - 1, i32(f.height) - 1);
+    let i0 = u32(clamp(i32(x0), 0, maxi.x));
+    let i1 = u32(clamp(i32(x0) + 1, 0, maxi.x));
+    let j0 = u32(clamp(i32(y0), 0, maxi.y));
+    let j1 = u32(clamp(i32(y0) + 1, 0, maxi.y));
+    let base = f.texel_base + side * f.width * f.height;
+    let l00 = atlas_texel(base + j0 * f.width + i0);
+    let l10 = atlas_texel(base + j0 * f.width + i1);
+    let l01 = atlas_texel(base + j1 * f.width + i0);
+    let l11 = atlas_texel(base + j1 * f.width + i1);
+    return mix(mix(l00, l10, fx), mix(l01, l11, fx), fy);
+}
+
+fn word(k: u32) -> u32 {
+    let t = k / 4u;
+    return textureLoad(tile_words, vec2<u32>(t % ATLAS_WIDTH, t / ATLAS_WIDTH), 0)[k % 4u];
+}
+
+fn frame_axis(k: u32) -> vec3<f32> {
+    return textureLoad(frames, vec2<u32>(k % ATLAS_WIDTH, k / ATLAS_WIDTH), 0).xyz;
+}
+
+// Tile value slot of `face` (non-diffuse slot mf) for fixed direction j and cell (ci, cj):
+// the value index of sense 0 (add m² for sense 1), or -1 when the face stores no tile there or
+// the cell is not covered by the face.
+fn tile_value_index(mf: u32, j: u32, ci: i32, cj: i32, sense: u32) -> i32 {
+    let l = word(0u);
+    let m = word(1u);
+    let n = word(2u);
+    if (ci < 0 || cj < 0 || ci >= i32(n) || cj >= i32(n)) {
+        return -1;
+    }
+    let k = mf * l + j;
+    var lo = word(word(4u) + k);
+    var hi = word(word(4u) + k + 1u);
+    let uci = u32(ci);
+    let ucj = u32(cj);
+    let tile = (ucj / m) * (n / m) + uci / m;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        let t = word(word(5u) + mid);
+        if (t == tile) {
+            let local = (ucj % m) * m + uci % m;
+            let cov = word(word(6u) + mid * word(7u) + local / 32u);
+            if (((cov >> (local % 32u)) & 1u) == 0u) {
+                return -1;
+            }
+            return i32((mid * 2u + sense) * m * m + local);
+        }
+        if (t < tile) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return -1;
+}
+
+fn tile_value(i: i32) -> vec3<f32> {
+    let u = u32(i);
+    return textureLoad(tile_values, vec2<u32>(u % ATLAS_WIDTH, u / ATLAS_WIDTH), 0).rgb;
+}
+
+// Specular radiance leaving face `face` at p towards the eye (against the view ray).
+fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
+    let mf = word(word(3u) + face);
+    if (mf == NO_FACE) {
+        return vec3<f32>(0.0);
+    }
+    let l = word(0u);
+    let n = f32(word(2u));
+    let ids = textureLoad(direction_ids, px, 0).xyz;
+    let wts = textureLoad(barycentrics, px, 0).xyz;
+    let to_eye = g.eye.xyz - p;
+    var out = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        let v = ids[k];
+        let j = v % l;
+        // The opposite sense of the view ray's vertex: light travelling towards the eye.
+        let sense = 1u - v / l;
+        let fu = frame_axis(2u * j);
+        let fv = frame_axis(2u * j + 1u);
+        // Only light leaving the visible side: skip a vertex whose direction points into it.
+        let dir = cross(fu, fv) * select(1.0, -1.0, sense == 1u);
+        if (dot(dir, normal) * dot(to_eye, normal) <= 0.0) {
+            continue;
+        }
+        let cx = (dot(p, fu) + 1.0) * 0.5 * n - 0.5;
+        let cy = (dot(p, fv) + 1.0) * 0.5 * n - 0.5;
+        let x0 = i32(floor(cx));
+        let y0 = i32(floor(cy));
+        let fx = cx - floor(cx);
+        let fy = cy - floor(cy);
+        var sum = vec3<f32>(0.0);
+        var wsum = 0.0;
+        for (var c = 0u; c < 4u; c++) {
+            let dx = i32(c & 1u);
+            let dy = i32(c >> 1u);
+            let w = select(1.0 - fx, fx, dx == 1) * select(1.0 - fy, fy, dy == 1);
+            let i = tile_value_index(mf, j, x0 + dx, y0 + dy, sense);
+            if (i >= 0 && w > 0.0) {
+                sum += tile_value(i) * w;
+                wsum += w;
+            }
+        }
+        if (wsum > 0.0) {
+            out += wts[k] * (sum / wsum);
+        }
+    }
+    return out;
+}
+
+// ---- begin display mapping (identical in render_display.wgsl; a unit test checks) ----
+// Narkowicz's fitted ACES filmic curve with his 0.6 pre-exposure: the same curve as
+// vlf_core::image::aces (PNG stills, HDR-FLIP), so the window shows what a PNG would.
+fn aces(v: vec3<f32>) -> vec3<f32> {
+    let x = max(v, vec3<f32>(0.0)) * 0.6;
+    let y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14);
+    return clamp(y, vec3<f32>(0.0), vec3<f32>(1.0));
+}
+
+fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
+
+// Radiance → displayed colour: exposure, tonemap.
+fn tonemap(radiance: vec3<f32>) -> vec3<f32> {
+    let l = radiance * g.exposure;
+    if g.tonemap == 1u {
+        return clamp(l, vec3<f32>(0.0), vec3<f32>(1.0));
+    } else if g.tonemap == 2u {
+        return aces(l);
+    }
+    return l;
+}
+
+// Colour → target encoding.
+fn encode(c: vec3<f32>) -> vec4<f32> {
+    if g.encode_srgb != 0u {
+        return vec4<f32>(srgb_encode(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0))), 1.0);
+    }
+    return vec4<f32>(c, 1.0);
+}
+// ---- end display mapping ----
+
+@vertex
+fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+    let x = f32(i32(vi & 1u) * 4 - 1);
+    let y = f32(i32(vi >> 1u) * 4 - 1);
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+fn shade(frag: vec4<f32>) -> vec4<f32> {
+    let pu = vec2<u32>(frag.xy);
+    let px = vec2<i32>(pu);
+    let face = textureLoad(face_ids, px, 0).r;
+    var l = g.sky.rgb;
+    var hit = 0.0;
+    if face != NO_FACE && face < g.face_count {
+        let p = textureLoad(positions, px, 0).xyz;
+        let f = load_face(face);
+        // The side facing the camera: front (0) when the eye is on the normal's side.
+        let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
+        l = diffuse_radiance(f, side, p);
+        if f.kind != FACE_DIFFUSE {
+            l += specular_radiance(face, f.normal, p, px);
+        }
+        hit = 1.0;
+    }
+    let sample = vec4<f32>(l, hit);
+    if g.sample_count > 1u {
+        let i = pu.y * g.width + pu.x;
+        if g.sample_index == 0u {
+            accum[i] = sample * g.sample_weight;
+        } else {
+            accum[i] = accum[i] + sample * g.sample_weight;
+        }
+    }
+    return sample;
+}
+
+@fragment
+fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    return shade(frag);
+}
+
+struct Presented {
+    @location(0) radiance: vec4<f32>,
+    @location(1) colour: vec4<f32>,
+}
+
+// Pass 5 fused with the display of the final image (window): the radiance target as in
+// fs_main, plus the exposed, tonemapped, encoded colour on the window's surface. Saves a
+// full-screen pass that would only read the radiance back.
+@fragment
+fn fs_present(@builtin(position) frag: vec4<f32>) -> Presented {
+    let s = shade(frag);
+    return Presented(s, encode(tonemap(s.rgb)));
+}
