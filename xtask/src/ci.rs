@@ -64,26 +64,87 @@ pub fn ci(root: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The main job on the bundled default scene, as far as the pipeline exists.
+/// The main job on the bundled default scene: bake the Cornell box, render stills from its
+/// camera (PNG to look at, EXR with linear radiance), and compare with the path-traced
+/// reference when `../shared/reference` is there.
 pub fn demo(root: &Path) -> Result<()> {
     let scene = root.join("assets/cornell-box/cornell-box.gltf");
-    let bake = |args: &[&str]| {
+    let out = root.join("out");
+    std::fs::create_dir_all(&out)?;
+    let vlf = out.join("cornell-box.vlf");
+    let s = |p: &Path| p.to_str().map(str::to_owned).context("non-UTF-8 path");
+    let run = |pkg: &str, args: &[String]| {
         let mut c = cargo(root);
-        c.args(["run", "--quiet", "-p", "vlf-bake", "--"])
-            .args(args);
+        c.args(["run", "--quiet", "-p", pkg, "--"]).args(args);
         c
     };
     step(
-        "load the default scene",
-        bake(&["inspect", scene.to_str().context("non-UTF-8 path")?]).arg("-v"),
+        "bake the Cornell box (default quality)",
+        &mut run(
+            "vlf-bake",
+            &["bake".into(), s(&scene)?, "-o".into(), s(&vlf)?],
+        ),
     )?;
     step(
-        "open the GPU and run the compute self-test",
-        &mut bake(&["selftest"]),
+        "describe the light field",
+        &mut run("vlf-bake", &["info".into(), s(&vlf)?]),
     )?;
+    let png = out.join("cornell-box.png");
+    let exr = out.join("cornell-box-256.exr");
+    step(
+        "render a still from the scene's camera",
+        &mut run(
+            "vlf-view",
+            &[
+                s(&vlf)?,
+                "--still".into(),
+                s(&png)?,
+                "--camera".into(),
+                "0".into(),
+                "--size".into(),
+                "512x512".into(),
+                "--spp".into(),
+                "16".into(),
+            ],
+        ),
+    )?;
+    step(
+        "render the reference's view as linear EXR",
+        &mut run(
+            "vlf-view",
+            &[
+                s(&vlf)?,
+                "--still".into(),
+                s(&exr)?,
+                "--camera".into(),
+                "0".into(),
+                "--size".into(),
+                "256x256".into(),
+                "--spp".into(),
+                "16".into(),
+            ],
+        ),
+    )?;
+    let reference = root.join("../shared/reference/cornell-ref.exr");
+    if reference.exists() {
+        step(
+            "compare with the path-traced reference (Mitsuba 3, 12,288 spp)",
+            &mut run(
+                "vlf-bake",
+                &[
+                    "compare".into(),
+                    s(&exr)?,
+                    s(&reference)?,
+                    "--diff".into(),
+                    s(&out.join("cornell-box-error.png"))?,
+                ],
+            ),
+        )?;
+    }
     eprintln!(
-        "demo: scene import and the GPU device work. Not built yet: light propagation \
-         (issue 4), the .vlf file (issue 6) and rendering a still (issue 7), so no image is written."
+        "demo: open {} to see the result (light field: {})",
+        png.display(),
+        vlf.display()
     );
     Ok(())
 }

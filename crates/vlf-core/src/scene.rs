@@ -141,7 +141,8 @@ pub struct Face {
     /// In-plane chart frame; every vertex of the face projects into
     /// `[0, extent.x] × [0, extent.y]` (up to `f32` rounding).
     pub basis: PlaneBasis,
-    /// Size of the face's bounding rectangle in the chart, `extent.x >= extent.y`.
+    /// Size of the face's bounding rectangle in the chart, `extent.x >= extent.y` (up to a
+    /// relative 1e-6 for near-squares, whose orientation follows a fixed world-space tie rule).
     /// The rectangle is the minimum-area one aligned with an edge of the face's
     /// convex hull, so charts are tight for rectangles and rotated polygons alike.
     pub extent: Vec2,

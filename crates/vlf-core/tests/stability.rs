@@ -1285,12 +1285,11 @@ fn scaled_scenes_match_the_unscaled_bake() {
     }
 }
 
-/// Known defect (scene import, not the propagator): a square face's chart is picked among tied
+/// Regression (was a defect of the scene import): a square face's chart used to be picked among tied
 /// minimum-area rectangles by f32 rounding, so scaling the scene can turn the chart by 90° and
 /// move its texel grid; texel-by-texel comparisons of scaled bakes then fail (a cube-shaped
 /// Cornell box at 1e-3: mean per-texel difference 8e-2) although the physics is unchanged.
 #[test]
-#[ignore = "scene/faces.rs fit_face: tied chart rectangles of square faces are broken by rounding (stability issue 8)"]
 fn square_face_chart_is_scale_invariant() {
     let square = |scale: f32| {
         let mut b = SceneBuilder::new();

@@ -94,20 +94,20 @@ pub enum DeviceError {
     )]
     NoAdapter { backends: String },
     #[error("only a software adapter is available ({adapter}) but a hardware GPU was required")]
-    SoftwareOnly { adapter: AdapterSummary },
+    SoftwareOnly { adapter: Box<AdapterSummary> },
     #[error("adapter {adapter} lacks required features: {missing:?}")]
     MissingFeatures {
-        adapter: AdapterSummary,
+        adapter: Box<AdapterSummary>,
         missing: wgpu::Features,
     },
     #[error("adapter {adapter} has insufficient limits: {}", .missing.join(", "))]
     InsufficientLimits {
-        adapter: AdapterSummary,
+        adapter: Box<AdapterSummary>,
         missing: Vec<String>,
     },
     #[error("device request failed on adapter {adapter}: {source}")]
     RequestDevice {
-        adapter: AdapterSummary,
+        adapter: Box<AdapterSummary>,
         #[source]
         source: wgpu::RequestDeviceError,
     },
@@ -158,13 +158,13 @@ impl GpuContext {
         let missing = REQUIRED_FEATURES - available;
         if !missing.is_empty() {
             return Err(DeviceError::MissingFeatures {
-                adapter: summary,
+                adapter: Box::new(summary),
                 missing,
             });
         }
         let limits = negotiate_limits(&adapter.limits()).map_err(|missing| {
             DeviceError::InsufficientLimits {
-                adapter: summary.clone(),
+                adapter: Box::new(summary.clone()),
                 missing,
             }
         })?;
@@ -178,7 +178,7 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|source| DeviceError::RequestDevice {
-            adapter: summary.clone(),
+            adapter: Box::new(summary.clone()),
             source,
         })?;
         log::info!("GPU adapter: {summary}");
@@ -217,7 +217,9 @@ async fn select_adapter(
     };
     let summary = AdapterSummary::new(&best.get_info());
     if choice == AdapterChoice::HardwareOnly && summary.is_software() {
-        return Err(DeviceError::SoftwareOnly { adapter: summary });
+        return Err(DeviceError::SoftwareOnly {
+            adapter: Box::new(summary),
+        });
     }
     Ok(best)
 }
@@ -257,7 +259,11 @@ pub fn negotiate_limits(adapter: &wgpu::Limits) -> Result<wgpu::Limits, Vec<Stri
         adapter.max_storage_buffer_binding_size,
         min.max_storage_buffer_binding_size,
     );
-    check("max_buffer_size", adapter.max_buffer_size, min.max_buffer_size);
+    check(
+        "max_buffer_size",
+        adapter.max_buffer_size,
+        min.max_buffer_size,
+    );
     check(
         "max_compute_workgroup_size_x",
         adapter.max_compute_workgroup_size_x.into(),

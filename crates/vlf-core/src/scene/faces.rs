@@ -252,12 +252,11 @@ fn fit_face<'a>(
         .map(|p| DVec2::new(p.dot(t1), p.dot(t2)))
         .collect();
     let hull = convex_hull(projected);
-    let mut best_dir = DVec2::X;
-    let mut best_area = f64::INFINITY;
     // Every hull edge is a candidate direction; very large hulls (a finely tessellated
     // disk) test at most MAX_CHART_DIRECTIONS evenly spaced edges to stay O(h). The
     // extent is always measured over every point, so containment stays exact.
     let step = hull.len().div_ceil(MAX_CHART_DIRECTIONS).max(1);
+    let mut candidates: Vec<(f64, DVec2)> = Vec::new();
     for k in (0..hull.len()).step_by(step) {
         let e = hull[(k + 1) % hull.len()] - hull[k];
         let len = e.length();
@@ -266,20 +265,45 @@ fn fit_face<'a>(
         }
         let d = e / len;
         let (lo, hi) = extent_along(&hull, d);
-        let rect = (hi.x - lo.x) * (hi.y - lo.y);
-        if rect < best_area * (1.0 - 1e-12) {
-            best_area = rect;
-            best_dir = d;
-        }
+        candidates.push(((hi.x - lo.x) * (hi.y - lo.y), d));
     }
-    let mut u = (t1 * best_dir.x + t2 * best_dir.y).normalize();
+    // Near-ties (a square fits several minimal rectangles; rounding picks among them) are
+    // broken by a fixed world-space rule, so the chart does not turn when the scene is scaled:
+    // prefer the rectangle with an axis most aligned with CHART_REFERENCE.
+    let best_area = candidates.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
+    let axis_score = |a: DVec3| a.dot(CHART_REFERENCE).abs();
+    let to_3d = |d: DVec2| (t1 * d.x + t2 * d.y).normalize();
+    let best_dir = candidates
+        .iter()
+        .filter(|c| c.0 <= best_area * (1.0 + TIE))
+        .map(|c| c.1)
+        .max_by(|a, b| {
+            let s = |d: DVec2| {
+                let u = to_3d(d);
+                axis_score(u).max(axis_score(n.cross(u)))
+            };
+            s(*a).total_cmp(&s(*b))
+        })
+        .unwrap_or(DVec2::X);
+    let mut u = to_3d(best_dir);
     let mut v = n.cross(u);
     let (mut lo, mut hi) = range_3d(pts, u, v);
-    if hi.y - lo.y > hi.x - lo.x {
-        // Put u along the longer side; (v, −u) keeps u × v = n.
+    let (wu, wv) = (hi.x - lo.x, hi.y - lo.y);
+    // u along the longer side; for (near-)squares the axis most aligned with the reference.
+    let swap = if (wu - wv).abs() > TIE * wu.max(wv) {
+        wv > wu
+    } else {
+        axis_score(v) > axis_score(u)
+    };
+    if swap {
+        // (v, −u) keeps u × v = n.
         (u, v) = (v, -u);
-        (lo, hi) = range_3d(pts, u, v);
     }
+    if u.dot(CHART_REFERENCE) < 0.0 {
+        // Rotate by 180° in the plane: (−u, −v) keeps u × v = n.
+        (u, v) = (-u, -v);
+    }
+    (lo, hi) = range_3d(pts, u, v);
     let origin = n * offset + u * lo.x + v * lo.y;
     Face {
         normal: n.as_vec3(),
@@ -295,6 +319,15 @@ fn fit_face<'a>(
         extent: (hi - lo).as_vec2(),
     }
 }
+
+/// Fixed world direction that breaks ties between equally good chart orientations.
+const CHART_REFERENCE: DVec3 = DVec3::new(
+    0.267_261_241_912_424_4,
+    0.534_522_483_824_848_8,
+    0.801_783_725_737_273_2,
+);
+/// Relative tolerance under which two chart rectangles (or side lengths) count as equal.
+const TIE: f64 = 1e-6;
 
 /// Min/max of the points' coordinates along `d` and its perpendicular.
 fn extent_along(pts: &[DVec2], d: DVec2) -> (DVec2, DVec2) {
