@@ -239,4 +239,64 @@ fn window_renders_frames_and_saves_a_screenshot_under_xvfb() {
     assert!(out.status.success());
     assert_eq!(png_size(&shot), (320, 240));
     assert!(String::from_utf8_lossy(&out.stdout).contains("after 5 frames"));
+
+    // Not blank, and the same picture as the headless still of the same view (1 sample per
+    // pixel, same exposure and tonemap).
+    let window = rgb8(&shot);
+    let mean = window.iter().map(|&v| f64::from(v)).sum::<f64>() / window.len() as f64;
+    let lit = window
+        .chunks(3)
+        .filter(|p| p.iter().any(|&c| c > 16))
+        .count();
+    assert!(
+        mean > 10.0 && lit > window.len() / 3 / 2,
+        "blank screenshot: mean {mean}, {lit} lit pixels"
+    );
+    let still = dir.join("still.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_vlf-view"))
+        .args([
+            cornell_vlf().to_str().unwrap(),
+            "--size",
+            "320x240",
+            "--spp",
+            "1",
+            "--still",
+        ])
+        .arg(&still)
+        .output()
+        .expect("run vlf-view --still");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let headless = rgb8(&still);
+    assert_eq!(window.len(), headless.len());
+    let diff: f64 = window
+        .iter()
+        .zip(&headless)
+        .map(|(&a, &b)| f64::from(a.abs_diff(b)))
+        .sum::<f64>()
+        / window.len() as f64;
+    eprintln!("window vs headless still: mean |Δ| = {diff:.3} (8-bit)");
+    // Same passes, same camera; differences come from the surface's sRGB encoding path
+    // (hardware vs shader) and sample placement: allow 2 levels on average.
+    assert!(
+        diff < 2.0,
+        "window screenshot differs from the headless still: mean |Δ| = {diff}"
+    );
+}
+
+/// Decodes an 8-bit RGB or RGBA PNG to RGB bytes.
+fn rgb8(path: &Path) -> Vec<u8> {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let bytes = &buf[..info.buffer_size()];
+    match info.color_type {
+        png::ColorType::Rgb => bytes.to_vec(),
+        png::ColorType::Rgba => bytes.chunks(4).flat_map(|p| [p[0], p[1], p[2]]).collect(),
+        other => panic!("unexpected PNG colour type {other:?} in {}", path.display()),
+    }
 }
