@@ -1,5 +1,6 @@
 //! The cross-crate test suite: one binary, so GPU tests share one device and one link step.
 
+mod accuracy;
 mod bake_gpu;
 mod gpu_smoke;
 mod render;
