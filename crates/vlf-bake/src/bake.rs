@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use serde::Serialize;
-use vlf_core::bake::{self, BakeParams, BakeScene, Iterations, Quality};
-use vlf_core::directions::DirectionSet;
+use vlf_core::bake::{self, BakeParams, Iterations, Quality};
 use vlf_core::lightfield::BakeStats;
 
 use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg};
+use crate::memory::{self, Budget};
 use crate::{Compute, open_device};
 
 /// Parameters from the preset and the explicit options.
@@ -101,15 +101,20 @@ pub struct MemoryReport {
     pub render_bytes: u64,
     /// Of which the sparse mirror tiles (total map).
     pub tile_bytes: u64,
+    /// The plan made before propagating, checked against the budget (`--max-memory`).
+    pub plan: memory::MemoryPlan,
 }
 
 /// Bakes one scene with an already opened device and writes the file atomically. `progress`
-/// receives (done, total) units of propagation work when the GPU reports it.
+/// receives (done, total) units of propagation work when the GPU reports it. The memory of the
+/// bake is planned against `budget` first: `--resolution` may be lowered (with a warning, and
+/// the report's `params` say so) or the bake refused ([`memory::MemoryError`]).
 pub fn bake_scene(
     scene_path: &Path,
     output: &Path,
     params: &BakeParams,
     compute: &Compute,
+    budget: &Budget,
     progress: &mut dyn FnMut(u64, u64, &str),
 ) -> anyhow::Result<BakeReport> {
     let t = Instant::now();
@@ -121,9 +126,15 @@ pub fn bake_scene(
     let t_load = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let prep = BakeScene::new(&scene, params).context("preparing the scene")?;
-    let set = DirectionSet::at_least(params.directions).context("direction set")?;
-    let t_prep = t.elapsed().as_secs_f64();
+    let memory::Planned {
+        params,
+        prep,
+        set,
+        plan,
+    } = memory::plan_and_prepare(&scene, params, compute, budget, scene_path)?;
+    let params = &params;
+    let t_plan = plan.plan_s;
+    let t_prep = (t.elapsed().as_secs_f64() - t_plan).max(0.0);
     for w in scene.warnings.iter().chain(&prep.warnings) {
         log::warn!("{}: {w}", scene_path.display());
     }
@@ -131,12 +142,14 @@ pub fn bake_scene(
     let t = Instant::now();
     let (out, device_name, adapter) = match compute {
         Compute::Gpu(ctx) => {
-            let out = vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut |p| {
-                let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
-                let total = u64::from(p.max_iterations) * p.directions as u64;
-                progress(done, total, &format!("iteration {}", p.iteration + 1));
-            })
-            .context("GPU propagation")?;
+            let out = memory::guard_gpu(ctx, &plan, || {
+                vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut |p| {
+                    let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
+                    let total = u64::from(p.max_iterations) * p.directions as u64;
+                    progress(done, total, &format!("iteration {}", p.iteration + 1));
+                })
+                .context("GPU propagation")
+            })?;
             (out, "gpu", ctx.summary.to_string())
         }
         Compute::Cpu(_) => (
@@ -164,6 +177,7 @@ pub fn bake_scene(
     let t_write = t.elapsed().as_secs_f64();
     let phases: Vec<(String, f64)> = [
         ("load", t_load),
+        ("plan", t_plan),
         ("prepare", t_prep),
         ("propagate", t_prop),
         ("write", t_write),
@@ -199,6 +213,7 @@ pub fn bake_scene(
             propagation_bytes: (texels + tile_values) * 3 * 16 + texels * 32,
             render_bytes: (texels + tile_values) * 16,
             tile_bytes: tile_values * 16,
+            plan,
         },
         output_bytes: bytes,
         warnings: scene
@@ -223,6 +238,7 @@ pub fn bake_command(
     let t = Instant::now();
     let compute = open_device(device)?;
     let t_device = t.elapsed().as_secs_f64();
+    let budget = Budget::new(args.max_memory, &compute, 1);
     if let (Compute::Cpu(why), false) = (&compute, quiet) {
         eprintln!(
             "warning: baking on the CPU reference path ({why}): single-threaded, much slower than a hardware GPU"
@@ -237,6 +253,7 @@ pub fn bake_command(
         output,
         &params,
         &compute,
+        &budget,
         &mut |done, total, msg| {
             if let Some(bar) = &bar {
                 bar.set_length(total);
@@ -261,7 +278,7 @@ pub fn bake_command(
             report.total_s,
             report.adapter,
             report.directions,
-            params.resolution,
+            report.params.resolution,
             report.iterations,
             100.0 * report.energy.unshot_fraction,
             100.0 * report.energy.imbalance

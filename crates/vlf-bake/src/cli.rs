@@ -10,8 +10,11 @@ use std::path::PathBuf;
     about = "Bake global illumination of a glTF 2.0 scene into a virtual light field",
     long_about = "Bake global illumination of a glTF 2.0 scene into a virtual light field.\n\n\
                   Light is propagated on the GPU (wgpu compute) along a hemisphere of directions, \
-                  each a grid of parallel rays. Exit codes: 0 success, 1 internal error, \
-                  2 usage error, 3 bad input file, 4 no usable GPU device."
+                  each a grid of parallel rays.\n\n\
+                  Exit codes: 0 success, 1 internal error, 2 usage error, 3 bad input file, \
+                  4 no usable GPU device (or the device was lost), 5 batch: some scenes failed \
+                  (the others were baked; see the report), 6 the bake does not fit the memory \
+                  budget (--max-memory) or the GPU ran out of memory, 130 interrupted (Ctrl-C)."
 )]
 pub struct Cli {
     /// More log output (-v: info, -vv: debug, -vvv: trace). RUST_LOG overrides.
@@ -115,6 +118,15 @@ pub struct BakeArgs {
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Memory budget of one bake, e.g. `2G`, `512M` (K, M, G, T are powers of 1024). The bake's
+    /// memory is planned before propagating (print it with -v); when the plan exceeds the
+    /// budget, --resolution is halved (with a warning) until it fits, and the bake is refused
+    /// (exit code 6) when no resolution down to 8 fits. Default: on the CPU path 3/4 of the
+    /// system RAM (/proc/meminfo MemTotal), divided by --jobs in `batch`; on a GPU, every
+    /// buffer within the adapter's max_storage_buffer_binding_size and the host side within
+    /// 3/4 of the RAM (on a hardware GPU, --max-memory bounds the GPU buffers).
+    #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
+    pub max_memory: Option<u64>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -132,6 +144,56 @@ pub enum Command {
         /// on stdout.
         #[arg(long)]
         json: bool,
+    },
+    /// Bake every .gltf/.glb scene under a directory (recursively, in sorted order, symbolic
+    /// links not followed) into an output directory that mirrors it.
+    #[command(
+        long_about = "Bake every .gltf/.glb scene under DIR (recursively, in sorted order, \
+                      symbolic links not followed) into OUTDIR, keeping relative paths: \
+                      DIR/a/b/scene.gltf is baked to OUTDIR/a/b/scene.vlf.\n\n\
+                      A scene is skipped when its output is newer than both the scene file and \
+                      the vlf-bake executable and was baked with the same parameters (a lower \
+                      --resolution chosen by the memory budget counts as the same); --force \
+                      bakes it again. Only the scene file's own time is compared: after editing \
+                      a .bin or texture next to a .gltf, use --force. A failing scene is \
+                      reported and the batch goes on. One line per scene on stdout, an overall \
+                      progress bar on stderr (on a terminal), and with --json a report written \
+                      atomically after every scene.\n\n\
+                      The device is opened once for the whole batch. Scenes without emitters, \
+                      suns or --sky fail with a clear message (no sky is added silently: pass \
+                      --sky R,G,B to light them). Ctrl-C stops cleanly: finished outputs stay, \
+                      the scene in progress leaves no file under its name (its temporary file \
+                      is removed), the report marks it `interrupted`, exit code 130. Stale \
+                      temporary files (.NAME.tmp.PID.N) of killed runs next to an output are \
+                      removed when their process is gone.\n\n\
+                      Exit codes: 0 every scene baked or up to date, 5 some scenes failed \
+                      (the others were baked), 130 interrupted; 2, 3 and 4 as for `bake` \
+                      when the batch itself cannot start (usage, missing DIR or no scene, no \
+                      device)."
+    )]
+    Batch {
+        /// Directory searched for scenes.
+        dir: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(short, long = "output", value_name = "OUTDIR")]
+        output: PathBuf,
+        /// Scenes baked at the same time on the CPU path (each bake is single-threaded; the
+        /// memory budget is shared between jobs). With a GPU every scene runs on the one shared
+        /// device, one at a time: --jobs is then ignored (one bake already fills the GPU, and
+        /// two would need twice its memory).
+        #[arg(short, long, value_name = "J", default_value_t = 1,
+              value_parser = clap::value_parser!(u32).range(1..=256))]
+        jobs: u32,
+        /// Write a JSON report to REPORT (atomically): per scene the input, output, status
+        /// (ok, skipped, failed, interrupted, not_started), error, times per phase, memory plan,
+        /// parameters and output size; plus totals.
+        #[arg(long, value_name = "REPORT")]
+        json: Option<PathBuf>,
+        /// Bake scenes whose output is up to date too.
+        #[arg(long)]
+        force: bool,
+        #[command(flatten)]
+        params: BakeArgs,
     },
     /// Compare a rendered image with a reference (both linear EXR of equal size): MSE,
     /// relMSE = mean((t−r)²/(r²+0.01)) over pixels and channels, and mean HDR-FLIP.

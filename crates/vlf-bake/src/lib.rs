@@ -2,19 +2,28 @@
 //! [`run`]. Progress output belongs here (binary side), never in `vlf-core`/`vlf-gpu`.
 
 pub mod bake;
+pub mod batch;
 pub mod cli;
+pub mod memory;
 
 use anyhow::Context as _;
 use cli::{Cli, Command, DeviceArg};
 use std::path::Path;
 
-/// Exit codes, documented in `--help`.
+/// Exit codes, documented in `--help` (2 is clap's usage error).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u8)]
 pub enum ExitCode {
     Internal = 1,
     BadInput = 3,
+    /// No usable GPU device, or the device was lost.
     NoDevice = 4,
+    /// `batch`: at least one scene failed (the others were baked).
+    BatchFailed = 5,
+    /// The bake does not fit the memory budget, or the GPU ran out of memory.
+    OutOfMemory = 6,
+    /// Interrupted by Ctrl-C (128 + SIGINT).
+    Interrupted = 130,
 }
 
 impl From<ExitCode> for std::process::ExitCode {
@@ -35,6 +44,16 @@ pub fn exit_code(err: &anyhow::Error) -> ExitCode {
         }
         if cause.is::<vlf_gpu::DeviceError>() {
             return ExitCode::NoDevice;
+        }
+        if let Some(e) = cause.downcast_ref::<memory::MemoryError>() {
+            return match e {
+                memory::MemoryError::DeviceLost { .. } => ExitCode::NoDevice,
+                memory::MemoryError::Gpu { .. } => ExitCode::Internal,
+                _ => ExitCode::OutOfMemory,
+            };
+        }
+        if let Some(e) = cause.downcast_ref::<batch::BatchError>() {
+            return e.exit_code();
         }
     }
     ExitCode::Internal
@@ -61,6 +80,23 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             params,
             json,
         } => bake::bake_command(&scene, &output, &params, cli.device, json, cli.quiet),
+        Command::Batch {
+            dir,
+            output,
+            jobs,
+            json,
+            force,
+            params,
+        } => batch::batch_command(&batch::BatchOptions {
+            dir,
+            output,
+            jobs,
+            report: json,
+            force,
+            args: params,
+            device: cli.device,
+            quiet: cli.quiet,
+        }),
         Command::Info { file, json } => info(&file, json),
         Command::Compare {
             test,
