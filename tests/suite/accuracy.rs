@@ -15,7 +15,8 @@ use vlf_tests::{gpu, shared_dir};
 fn rel_mse_against_reference(scene: &str, reference: &str) -> Option<f64> {
     let ctx = gpu()?;
     let scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
-    let params = Quality::Auto.params();
+    // What `vlf-bake bake` does by default: the auto preset refined from the scene.
+    let params = bake::auto::choose(&scene, Quality::Auto).params;
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = vlf_gpu::bake::propagate(ctx, &prep, &set, &params, &mut |_| {}).unwrap();

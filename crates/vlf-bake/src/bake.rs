@@ -12,21 +12,43 @@ use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg};
 use crate::memory::{self, Budget};
 use crate::{Compute, open_device};
 
-/// Parameters from the preset and the explicit options.
-pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
-    let q = match a.quality {
+fn quality(a: &BakeArgs) -> Quality {
+    match a.quality {
         QualityArg::Draft => Quality::Draft,
         QualityArg::Auto => Quality::Auto,
         QualityArg::High => Quality::High,
-    };
-    let mut p = q.params();
+    }
+}
+
+/// Parameters from the preset and the explicit options, before looking at a scene.
+pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
+    let mut p = quality(a).params();
+    apply_explicit(a, &mut p);
+    p.validate().context("bake parameters")?;
+    Ok(p)
+}
+
+/// Parameters for `scene`: the preset refined by the scene rules (`vlf_core::bake::auto`: ray
+/// spacing, tile size, perturbation, threshold), then every explicit option on top. Returns
+/// the rules' reasons for `-v` and `--json`.
+pub fn resolve_params(
+    a: &BakeArgs,
+    scene: &vlf_core::scene::Scene,
+) -> anyhow::Result<(BakeParams, Vec<String>)> {
+    let report = bake::auto::choose(scene, quality(a));
+    let mut p = report.params;
+    apply_explicit(a, &mut p);
+    p.validate().context("bake parameters")?;
+    Ok((p, report.reasons))
+}
+
+fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
     if let Some(v) = a.directions {
         p.directions = v;
     }
     if let Some(v) = a.resolution {
         p.resolution = v;
-        // Keep the preset's tile if it divides the new resolution, else use the largest
-        // divisor ≤ the preset's tile.
+        // Keep the tile if it divides the new resolution, else use the largest divisor ≤ it.
         if a.tile.is_none() && !v.is_multiple_of(p.tile) {
             p.tile = (1..=p.tile)
                 .rev()
@@ -40,11 +62,9 @@ pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
     match a.iterations {
         Some(IterationsArg::Fixed(k)) => p.iterations = Iterations::Fixed(k),
         Some(IterationsArg::Auto) | None => {
-            if let Iterations::Converge { max, .. } = p.iterations {
-                p.iterations = Iterations::Converge {
-                    threshold: a.threshold,
-                    max,
-                };
+            if let (Iterations::Converge { max, .. }, Some(threshold)) = (p.iterations, a.threshold)
+            {
+                p.iterations = Iterations::Converge { threshold, max };
             }
         }
     }
@@ -57,8 +77,6 @@ pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
     if let Some(s) = a.sky {
         p.sky = glam::Vec3::from(s.0);
     }
-    p.validate().context("bake parameters")?;
-    Ok(p)
 }
 
 /// What `--json` prints.
@@ -78,6 +96,8 @@ pub struct BakeReport {
     pub memory: MemoryReport,
     pub output_bytes: u64,
     pub warnings: Vec<String>,
+    /// Why `--quality` chose these parameters for this scene.
+    pub auto: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -112,13 +132,18 @@ pub struct MemoryReport {
 pub fn bake_scene(
     scene_path: &Path,
     output: &Path,
-    params: &BakeParams,
+    args: &BakeArgs,
     compute: &Compute,
     budget: &Budget,
     progress: &mut dyn FnMut(u64, u64, &str),
 ) -> anyhow::Result<BakeReport> {
     let t = Instant::now();
     let scene = vlf_core::scene::load(scene_path)?;
+    let (params, auto_reasons) = resolve_params(args, &scene)?;
+    for r in &auto_reasons {
+        log::info!("{}: {r}", scene_path.display());
+    }
+    let params = &params;
     vlf_core::scene::check_lighting(
         &scene,
         (params.sky != glam::Vec3::ZERO).then_some(params.sky),
@@ -222,6 +247,7 @@ pub fn bake_scene(
             .chain(&prep.warnings)
             .cloned()
             .collect(),
+        auto: auto_reasons,
     })
 }
 
@@ -234,7 +260,8 @@ pub fn bake_command(
     json: bool,
     quiet: bool,
 ) -> anyhow::Result<()> {
-    let params = params_from_args(args)?;
+    // Validate the explicit options before opening a device (the scene refines them later).
+    params_from_args(args)?;
     let t = Instant::now();
     let compute = open_device(device)?;
     let t_device = t.elapsed().as_secs_f64();
@@ -251,7 +278,7 @@ pub fn bake_command(
     let mut report = bake_scene(
         scene_path,
         output,
-        &params,
+        args,
         &compute,
         &budget,
         &mut |done, total, msg| {

@@ -28,7 +28,7 @@ use serde::Serialize;
 use vlf_core::bake::BakeParams;
 
 use crate::ExitCode;
-use crate::bake::{BakeReport, bake_scene, params_from_args};
+use crate::bake::{BakeReport, bake_scene, params_from_args, resolve_params};
 use crate::cli::{BakeArgs, DeviceArg};
 use crate::memory::{Budget, MemoryError, human};
 use crate::{Compute, open_device};
@@ -289,7 +289,17 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
                 output.display()
             );
         }
-        match up_to_date(&input, &output, exe_time, &params) {
+        // The parameters this scene would get (`--quality` refines them per scene); a scene that
+        // does not load is never up to date (its bake reports the error).
+        let want = vlf_core::scene::load(&input)
+            .ok()
+            .and_then(|s| resolve_params(&opts.args, &s).ok())
+            .map(|(p, _)| p);
+        let fresh = match &want {
+            Some(w) => up_to_date(&input, &output, exe_time, w),
+            None => Err(None),
+        };
+        match fresh {
             Ok(info) if !opts.force => {
                 rec.status = Status::Skipped;
                 rec.reason = Some("up to date".into());
@@ -375,7 +385,7 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
             stop.clone(),
             tx.clone(),
         );
-        let (params, budget) = (params.clone(), budget.clone());
+        let (args, budget) = (opts.args.clone(), budget.clone());
         std::thread::Builder::new()
             .name(format!("bake-{k}"))
             .stack_size(16 << 20)
@@ -389,7 +399,7 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
                         break;
                     };
                     let _ = tx.send(Event::Started(job.index));
-                    let rec = bake_one(&job, &params, &compute, &budget, &tx);
+                    let rec = bake_one(&job, &args, &compute, &budget, &tx);
                     let _ = tx.send(Event::Done(job.index, Box::new(rec)));
                 }
             })
@@ -491,7 +501,7 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
 /// Bakes one scene on a worker thread; never panics (a panic becomes a failed record).
 fn bake_one(
     job: &Job,
-    params: &BakeParams,
+    args: &crate::cli::BakeArgs,
     compute: &Compute,
     budget: &Budget,
     tx: &mpsc::Sender<Event>,
@@ -514,7 +524,7 @@ fn bake_one(
                 bake_scene(
                     &job.input,
                     &job.output,
-                    params,
+                    args,
                     compute,
                     budget,
                     &mut |done, total, msg| {
@@ -542,7 +552,7 @@ fn bake_one(
         phases_s: BTreeMap::new(),
         total_s: t.elapsed().as_secs_f64(),
         memory: None,
-        params: params.clone(),
+        params: params_from_args(args).unwrap_or_else(|_| vlf_core::bake::Quality::Auto.params()),
         output_bytes: None,
         directions: None,
         iterations: None,

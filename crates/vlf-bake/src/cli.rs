@@ -40,11 +40,11 @@ pub enum DeviceArg {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum QualityArg {
-    /// Fast preview: 126 directions, 64² rays.
+    /// Fast preview: 126 directions, 32–64 rays per side, stop at 1e-2.
     Draft,
-    /// The default: 512 directions, 128² rays, iterate to convergence.
+    /// The default: 606 directions, 64–256 rays per side from the scene, stop at 1e-3.
     Auto,
-    /// 2,048 directions, 256² rays.
+    /// 2,206 directions, 128–512 rays per side from the scene, stop at 1e-4.
     High,
 }
 
@@ -90,7 +90,9 @@ impl std::str::FromStr for Rgb {
 /// Parameters of a bake; unset ones come from `--quality`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BakeArgs {
-    /// Parameter preset; explicit options below override it.
+    /// Parameter preset, refined from the scene (ray spacing from the distances between
+    /// mutually visible faces, tile size from the triangle density, perturbed directions for
+    /// small emitters; see docs/QUALITY.md); explicit options below override it.
     #[arg(long, value_enum, default_value_t = QualityArg::Auto)]
     pub quality: QualityArg,
     /// Number of directions l (rounded up to the next geodesic set, 5k²+1).
@@ -106,9 +108,10 @@ pub struct BakeArgs {
     /// --threshold of the emitted power.
     #[arg(long)]
     pub iterations: Option<IterationsArg>,
-    /// Convergence threshold for `--iterations auto`.
-    #[arg(long, default_value_t = 1e-3)]
-    pub threshold: f32,
+    /// Convergence threshold for `--iterations auto` (default from --quality: draft 1e-2,
+    /// auto 1e-3, high 1e-4).
+    #[arg(long)]
+    pub threshold: Option<f32>,
     /// Perturbed (virtual) transport directions per fixed direction.
     #[arg(long)]
     pub perturb: Option<u32>,
