@@ -18,7 +18,8 @@ pub fn gpu_required() -> bool {
 /// not required. Panics with the device error when `VLF_REQUIRE_GPU=1`.
 pub fn gpu() -> Option<&'static GpuContext> {
     static CTX: OnceLock<Result<GpuContext, String>> = OnceLock::new();
-    let ctx = CTX.get_or_init(|| GpuContext::new(&DeviceOptions::default()).map_err(|e| e.to_string()));
+    let ctx =
+        CTX.get_or_init(|| GpuContext::new(&DeviceOptions::default()).map_err(|e| e.to_string()));
     match ctx {
         Ok(ctx) => Some(ctx),
         Err(e) if gpu_required() => panic!("VLF_REQUIRE_GPU is set but no usable GPU adapter: {e}"),

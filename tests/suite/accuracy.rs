@@ -29,7 +29,7 @@ fn rel_mse_against_reference(scene: &str, reference: &str) -> Option<f64> {
         height: 256,
         pixels,
     };
-    let refimg = image::read_exr(&shared_dir().join("reference").join(reference)).unwrap();
+    let refimg = image::read_exr(shared_dir().join("reference").join(reference)).unwrap();
     Some(image::rel_mse(&test, &refimg))
 }
 

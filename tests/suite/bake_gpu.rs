@@ -38,7 +38,8 @@ fn difference(prep: &BakeScene, a: &[[f32; 4]], b: &[[f32; 4]], floor: f32) -> (
 /// GPU equals the CPU reference on the diffuse Cornell box at small settings.
 #[test]
 fn gpu_matches_cpu_reference_on_cornell_box() {
-    let scene = vlf_core::scene::load(&repo_dir().join("assets/cornell-box/cornell-box.gltf")).unwrap();
+    let scene =
+        vlf_core::scene::load(&repo_dir().join("assets/cornell-box/cornell-box.gltf")).unwrap();
     let params = BakeParams {
         directions: 46,
         resolution: 32,
@@ -46,7 +47,9 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
         iterations: Iterations::Fixed(3),
         ..BakeParams::paper()
     };
-    let Some((prep, cpu, gpu)) = both(&scene, &params) else { return };
+    let Some((prep, cpu, gpu)) = both(&scene, &params) else {
+        return;
+    };
     assert_eq!(cpu.iterations, gpu.iterations);
     let (mean, p99) = difference(&prep, &cpu.radiance, &gpu.radiance, 1e-4);
     eprintln!("GPU vs CPU: mean relative difference {mean:.2e}, 99th percentile {p99:.2e}");
@@ -54,8 +57,15 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
     // flipping which rays count as crossing a texel at its boundary.
     assert!(mean < 1e-3 && p99 < 1e-2, "mean {mean:.2e} p99 {p99:.2e}");
     let (ec, eg) = (&cpu.energy, &gpu.energy);
-    assert!(((ec.absorbed - eg.absorbed) / ec.absorbed).abs() < 1e-3, "{ec:?} vs {eg:?}");
-    assert!(eg.relative_imbalance().abs() < 0.005, "GPU imbalance {:?}", eg);
+    assert!(
+        ((ec.absorbed - eg.absorbed) / ec.absorbed).abs() < 1e-3,
+        "{ec:?} vs {eg:?}"
+    );
+    assert!(
+        eg.relative_imbalance().abs() < 0.005,
+        "GPU imbalance {:?}",
+        eg
+    );
 }
 
 /// Furnace on the GPU: closed box, emission L_e, albedo ρ → L_e / (1 − ρ) within 1 %.
@@ -64,16 +74,26 @@ fn gpu_furnace_closed_box() {
     let (le, rho) = (Vec3::new(1.0, 0.5, 0.25), 0.5);
     let mut b = SceneBuilder::new();
     let m = b.diffuse("furnace", Vec3::splat(rho), le);
-    b.aabox(Vec3::new(-1.0, -0.7, -0.4), Vec3::new(1.0, 0.7, 0.4), true, m);
+    b.aabox(
+        Vec3::new(-1.0, -0.7, -0.4),
+        Vec3::new(1.0, 0.7, 0.4),
+        true,
+        m,
+    );
     let scene = b.build("furnace box");
     let params = BakeParams {
         directions: 46,
         resolution: 32,
         tile: 8,
-        iterations: Iterations::Converge { threshold: 1e-5, max: 100 },
+        iterations: Iterations::Converge {
+            threshold: 1e-5,
+            max: 100,
+        },
         ..BakeParams::paper()
     };
-    let Some((prep, _, gpu)) = both(&scene, &params) else { return };
+    let Some((prep, _, gpu)) = both(&scene, &params) else {
+        return;
+    };
     let want = le / (1.0 - rho);
     for f in &prep.faces {
         let n = f.texels_per_side() as usize;
@@ -95,7 +115,12 @@ fn gpu_open_plane_under_sky() {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
     b.quad(
-        [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)],
+        [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+        ],
         m,
     );
     let scene = b.build("sky plane");
@@ -107,11 +132,16 @@ fn gpu_open_plane_under_sky() {
         iterations: Iterations::Fixed(2),
         ..BakeParams::paper()
     };
-    let Some((prep, _, gpu)) = both(&scene, &params) else { return };
+    let Some((prep, _, gpu)) = both(&scene, &params) else {
+        return;
+    };
     for t in 0..prep.texel_count() {
         if prep.texel_area[t] > 0.0 {
             let l = Vec4::from(gpu.radiance[t]).truncate();
-            assert!(((l - sky * rho).abs() / (sky * rho)).max_element() < 1e-3, "texel {t}: {l:?}");
+            assert!(
+                ((l - sky * rho).abs() / (sky * rho)).max_element() < 1e-3,
+                "texel {t}: {l:?}"
+            );
         }
     }
 }
@@ -119,7 +149,9 @@ fn gpu_open_plane_under_sky() {
 /// GPU equals the CPU reference on the mirror Cornell box (texels and mirror tiles).
 #[test]
 fn gpu_matches_cpu_reference_on_mirror_cornell_box() {
-    let scene = vlf_core::scene::load(&repo_dir().join("assets/cornell-mirror/cornell-mirror.gltf")).unwrap();
+    let scene =
+        vlf_core::scene::load(&repo_dir().join("assets/cornell-mirror/cornell-mirror.gltf"))
+            .unwrap();
     let params = BakeParams {
         directions: 46,
         resolution: 32,
@@ -127,7 +159,9 @@ fn gpu_matches_cpu_reference_on_mirror_cornell_box() {
         iterations: Iterations::Fixed(3),
         ..BakeParams::paper()
     };
-    let Some((prep, cpu, gpu)) = both(&scene, &params) else { return };
+    let Some((prep, cpu, gpu)) = both(&scene, &params) else {
+        return;
+    };
     let (mean, p99) = difference(&prep, &cpu.radiance, &gpu.radiance, 1e-4);
     let (ci, cv) = cpu.tiles.as_ref().expect("CPU tiles");
     let (gi, gv) = gpu.tiles.as_ref().expect("GPU tiles");
@@ -142,9 +176,17 @@ fn gpu_matches_cpu_reference_on_mirror_cornell_box() {
         }
     }
     let tile_rel = sum / norm.max(1e-30);
-    eprintln!("mirror box GPU vs CPU: texels mean {mean:.2e} p99 {p99:.2e}; tiles L1 {tile_rel:.2e}, worst {worst:.2e}");
-    assert!(mean < 1e-3 && p99 < 1e-2, "texels: mean {mean:.2e} p99 {p99:.2e}");
-    assert!(tile_rel < 1e-3, "tiles: relative L1 difference {tile_rel:.2e}");
+    eprintln!(
+        "mirror box GPU vs CPU: texels mean {mean:.2e} p99 {p99:.2e}; tiles L1 {tile_rel:.2e}, worst {worst:.2e}"
+    );
+    assert!(
+        mean < 1e-3 && p99 < 1e-2,
+        "texels: mean {mean:.2e} p99 {p99:.2e}"
+    );
+    assert!(
+        tile_rel < 1e-3,
+        "tiles: relative L1 difference {tile_rel:.2e}"
+    );
     assert!(
         ((cpu.energy.escaped - gpu.energy.escaped) / cpu.energy.escaped).abs() < 1e-3,
         "{:?} vs {:?}",

@@ -18,7 +18,13 @@ impl CellsPass {
             label: Some("Cells::pass_layout"),
             entries: &entries,
         });
-        let pipeline = common::pipeline(device, "Cells", globals, &layout, &crate::shaders::BAKE_CELLS);
+        let pipeline = common::pipeline(
+            device,
+            "Cells",
+            globals,
+            &layout,
+            &crate::shaders::BAKE_CELLS,
+        );
         Self { layout, pipeline }
     }
 

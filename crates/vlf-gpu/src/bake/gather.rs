@@ -18,7 +18,13 @@ impl GatherPass {
             label: Some("Gather::pass_layout"),
             entries: &entries,
         });
-        let pipeline = common::pipeline(device, "Gather", globals, &layout, &crate::shaders::BAKE_GATHER);
+        let pipeline = common::pipeline(
+            device,
+            "Gather",
+            globals,
+            &layout,
+            &crate::shaders::BAKE_GATHER,
+        );
         Self { layout, pipeline }
     }
 

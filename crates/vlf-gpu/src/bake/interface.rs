@@ -18,7 +18,13 @@ impl InterfacePass {
             label: Some("Interface::pass_layout"),
             entries: &entries,
         });
-        let pipeline = common::pipeline(device, "Interface", globals, &layout, &crate::shaders::BAKE_INTERFACE);
+        let pipeline = common::pipeline(
+            device,
+            "Interface",
+            globals,
+            &layout,
+            &crate::shaders::BAKE_INTERFACE,
+        );
         Self { layout, pipeline }
     }
 

@@ -18,7 +18,13 @@ impl ReflectPass {
             label: Some("Reflect::pass_layout"),
             entries: &entries,
         });
-        let pipeline = common::pipeline(device, "Reflect", globals, &layout, &crate::shaders::BAKE_REFLECT);
+        let pipeline = common::pipeline(
+            device,
+            "Reflect",
+            globals,
+            &layout,
+            &crate::shaders::BAKE_REFLECT,
+        );
         Self { layout, pipeline }
     }
 

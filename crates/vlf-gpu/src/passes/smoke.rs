@@ -25,7 +25,9 @@ impl SmokePass {
                 ty: wgpu::BindingType::Buffer {
                     ty: wgpu::BufferBindingType::Uniform,
                     has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<SmokeParams>() as u64),
+                    min_binding_size: wgpu::BufferSize::new(
+                        std::mem::size_of::<SmokeParams>() as u64
+                    ),
                 },
                 count: None,
             }],
@@ -122,7 +124,11 @@ impl SmokePass {
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &globals_bg, &[]);
             pass.set_bind_group(1, &pass_bg, &[]);
-            let (gx, gy) = dispatch_2d(count, WORKGROUP, device.limits().max_compute_workgroups_per_dimension);
+            let (gx, gy) = dispatch_2d(
+                count,
+                WORKGROUP,
+                device.limits().max_compute_workgroups_per_dimension,
+            );
             pass.dispatch_workgroups(gx, gy, 1);
         }
         queue.submit(Some(encoder.finish()));
