@@ -3,5 +3,6 @@
 mod accuracy;
 mod bake_gpu;
 mod gpu_smoke;
+mod pathtrace_gpu;
 mod render;
 mod stability_gpu;

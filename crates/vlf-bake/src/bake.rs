@@ -37,9 +37,23 @@ pub fn resolve_params(
 ) -> anyhow::Result<(BakeParams, Vec<String>)> {
     let report = bake::auto::choose(scene, quality(a));
     let mut p = report.params;
+    let mut reasons = report.reasons;
     apply_explicit(a, &mut p);
+    if let Some(sky) = a.sky_if_unlit
+        && p.sky == glam::Vec3::ZERO
+        && !scene.has_emitters()
+        && scene.suns.is_empty()
+    {
+        p.sky = glam::Vec3::from(sky.0);
+        let msg = format!(
+            "no emitter and no sun: lit by a sky of radiance {:?} (--sky-if-unlit)",
+            sky.0
+        );
+        log::warn!("{}: {msg}", scene.source.display());
+        reasons.push(msg);
+    }
     p.validate().context("bake parameters")?;
-    Ok((p, report.reasons))
+    Ok((p, reasons))
 }
 
 fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {

@@ -121,6 +121,10 @@ pub struct BakeArgs {
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Sky radiance to use only for scenes with no emitter, no sun and no --sky (which would
+    /// otherwise be refused as unlit). `batch` defaults it to 1,1,1; `bake` has no default.
+    #[arg(long, value_name = "R,G,B")]
+    pub sky_if_unlit: Option<Rgb>,
     /// Memory budget of one bake, e.g. `2G`, `512M` (K, M, G, T are powers of 1024). The bake's
     /// memory is planned before propagating (print it with -v); when the plan exceeds the
     /// budget, --resolution is halved (with a warning) until it fits, and the bake is refused
@@ -195,6 +199,10 @@ pub enum Command {
         /// Bake scenes whose output is up to date too.
         #[arg(long)]
         force: bool,
+        /// Refuse scenes with no emitter, no sun and no --sky instead of lighting them with a
+        /// white sky of radiance 1 (the batch default for --sky-if-unlit).
+        #[arg(long)]
+        no_default_sky: bool,
         #[command(flatten)]
         params: BakeArgs,
     },
@@ -212,6 +220,9 @@ pub enum Command {
         #[arg(long)]
         diff: Option<PathBuf>,
     },
+    /// Render an unbiased path-traced reference image (EXR) with the conventions of the shared
+    /// Mitsuba references, to validate bakes without any other tool.
+    Reference(crate::reference::ReferenceArgs),
     /// Describe a light-field file: parameters, counts, memory by section, bake statistics.
     Info {
         /// The light-field file.

@@ -5,6 +5,7 @@ pub mod bake;
 pub mod batch;
 pub mod cli;
 pub mod memory;
+pub mod reference;
 
 use anyhow::Context as _;
 use cli::{Cli, Command, DeviceArg};
@@ -39,6 +40,7 @@ pub fn exit_code(err: &anyhow::Error) -> ExitCode {
             || cause.is::<vlf_core::format::FormatError>()
             || cause.is::<vlf_core::bake::ParamsError>()
             || cause.is::<vlf_core::image::ImageError>()
+            || cause.is::<vlf_core::pathtrace::PathTraceError>()
         {
             return ExitCode::BadInput;
         }
@@ -86,18 +88,25 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             jobs,
             json,
             force,
-            params,
+            no_default_sky,
+            mut params,
         } => batch::batch_command(&batch::BatchOptions {
             dir,
             output,
             jobs,
             report: json,
             force,
-            args: params,
+            args: {
+                if !no_default_sky && params.sky_if_unlit.is_none() {
+                    params.sky_if_unlit = Some(cli::Rgb([1.0; 3]));
+                }
+                params
+            },
             device: cli.device,
             quiet: cli.quiet,
         }),
         Command::Info { file, json } => info(&file, json),
+        Command::Reference(args) => reference::reference_command(&args, cli.device, cli.quiet),
         Command::Compare {
             test,
             reference,

@@ -142,6 +142,90 @@ pub struct TexelAccum {
     pub open: [f32; 4],
 }
 
+/// Globals of the GPU path tracer (`shaders/raytrace_path.wgsl`, group 0 binding 0). Blob
+/// offsets are in `vec4` units (see `crate::raytrace::scene`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RtGlobals {
+    /// Eye position; w = tan(yfov / 2).
+    pub cam_pos: [f32; 4],
+    /// Unit forward; w = aspect (width / height).
+    pub cam_forward: [f32; 4],
+    /// Unit right; w = probability of sampling an emitter rather than a sun.
+    pub cam_right: [f32; 4],
+    /// Unit up; w unused.
+    pub cam_up: [f32; 4],
+    /// Sky radiance (rgb).
+    pub sky: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    /// Sample index of the wave's first sample.
+    pub sample_base: u32,
+    /// Samples of each pixel traced by one wave.
+    pub samples_per_wave: u32,
+    /// Paths per wave (8×8 tiles × 64 × samples_per_wave).
+    pub path_count: u32,
+    pub tiles_x: u32,
+    /// Largest workgroup count per dispatch dimension.
+    pub max_groups: u32,
+    pub mat_base: u32,
+    pub emitter_base: u32,
+    pub emitter_count: u32,
+    pub sun_base: u32,
+    pub sun_count: u32,
+    pub tex_base: u32,
+    /// Total samples per pixel (the divisor of `finish`).
+    pub spp: u32,
+    /// Russian roulette starts when a path has this many bounces.
+    pub rr_depth: u32,
+    /// First 8×8 tile of this chunk of the image (row-major tile index).
+    pub tile_base: u32,
+    /// Tiles in this chunk.
+    pub tile_count: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
+/// (`raytrace_*.wgsl`, bound with a dynamic offset at a 256-byte stride).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RtBatch {
+    pub queue: u32,
+    pub base: u32,
+    pub next_queue: u32,
+    pub next_base: u32,
+    pub shadow_base: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// A ray queue header (`raytrace_*.wgsl`): the number of rays in the queue.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RtQueue {
+    pub count: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// The state of one path in the wavefront path tracer (`raytrace_path.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RtPath {
+    pub throughput: [f32; 3],
+    /// Accumulation slot (`u32::MAX`: inactive).
+    pub slot: u32,
+    pub rng_state: u32,
+    pub rng_inc: u32,
+    pub depth: u32,
+    /// Solid-angle pdf of the last BSDF sample; negative after a delta or camera sample.
+    pub pdf: f32,
+}
+
 /// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
 pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
     use vlf_core::bake::{BakeFace, BakeTriangle};
@@ -177,6 +261,19 @@ pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
     reg.push(entry::<Crossing>("Crossing", "bake_interface.wgsl"));
     reg.push(entry::<Crossing>("Crossing", "bake_gather.wgsl"));
     reg.push(entry::<TexelAccum>("TexelAccum", "bake_gather.wgsl"));
+    {
+        use vlf_core::pathtrace::{BvhNode, Hit, Ray, RtTriangle};
+        for file in ["raytrace_engine.wgsl", "raytrace_path.wgsl"] {
+            reg.push(entry::<BvhNode>("BvhNode", file));
+            reg.push(entry::<RtTriangle>("RtTriangle", file));
+            reg.push(entry::<Ray>("Ray", file));
+            reg.push(entry::<Hit>("Hit", file));
+            reg.push(entry::<RtBatch>("RtBatch", file));
+            reg.push(entry::<RtQueue>("RtQueue", file));
+        }
+        reg.push(entry::<RtGlobals>("RtGlobals", "raytrace_path.wgsl"));
+        reg.push(entry::<RtPath>("RtPath", "raytrace_path.wgsl"));
+    }
     reg
 }
 

@@ -12,6 +12,7 @@ pub mod bake;
 pub mod device;
 pub mod layout;
 pub mod passes;
+pub mod raytrace;
 pub mod readback;
 pub mod render;
 pub mod shaders;

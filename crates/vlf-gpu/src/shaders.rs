@@ -32,6 +32,8 @@ pub const RENDER_FACE_ID: Shader = shader!("render_face_id.wgsl");
 pub const RENDER_POSITION: Shader = shader!("render_position.wgsl");
 pub const RENDER_FINAL_RADIANCE: Shader = shader!("render_final_radiance.wgsl");
 pub const RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
+pub const RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
+pub const RAYTRACE_PATH: Shader = shader!("raytrace_path.wgsl");
 
 /// Every shader of the project. The test `registry_matches_folder` keeps this list complete.
 pub const ALL: &[Shader] = &[
@@ -46,6 +48,8 @@ pub const ALL: &[Shader] = &[
     RENDER_POSITION,
     RENDER_FINAL_RADIANCE,
     RENDER_DISPLAY,
+    RAYTRACE_ENGINE,
+    RAYTRACE_PATH,
 ];
 
 impl Shader {

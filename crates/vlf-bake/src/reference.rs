@@ -1,0 +1,328 @@
+//! `vlf-bake reference`: an unbiased path-traced reference image of a scene, following the
+//! conventions of the shared Mitsuba references (`shared/reference/README.md`), so that bakes
+//! can be validated without any other tool.
+//!
+//! The CPU path tracer is `vlf_core::pathtrace`; the GPU one (`vlf_gpu::raytrace`) runs the same
+//! estimator with the same random streams, so both give the same image up to rounding.
+//! Device choice (`--device`): `cpu` → CPU; `gpu` → the GPU (fails without an adapter);
+//! `auto` → a hardware GPU when there is one, else the CPU tracer: on a software adapter
+//! (lavapipe) the GPU kernels run on the same CPU cores about 3× slower than the native tracer.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use glam::Vec3;
+use serde::Serialize;
+use vlf_core::image::{Image, write_exr};
+use vlf_core::pathtrace::{self, PinholeCamera, PreparedScene, RenderSettings};
+use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
+
+use crate::cli::{DeviceArg, Rgb};
+
+/// `WxH` image size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Size(pub u32, pub u32);
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected WIDTHxHEIGHT (e.g. 256x256), got `{s}`");
+        let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+        let w: u32 = w.trim().parse().map_err(|_| bad())?;
+        let h: u32 = h.trim().parse().map_err(|_| bad())?;
+        if w == 0 || h == 0 || w > 16_384 || h > 16_384 {
+            return Err(format!(
+                "image size {w}x{h} must be between 1 and 16384 on each side"
+            ));
+        }
+        Ok(Size(w, h))
+    }
+}
+
+/// `x,y,z` point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point(pub Vec3);
+
+impl std::str::FromStr for Point {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let v: Result<Vec<f32>, _> = s.split(',').map(|x| x.trim().parse::<f32>()).collect();
+        match v.as_deref() {
+            Ok([x, y, z]) if [x, y, z].iter().all(|c| c.is_finite()) => {
+                Ok(Point(Vec3::new(*x, *y, *z)))
+            }
+            _ => Err(format!("expected x,y,z (three finite numbers), got `{s}`")),
+        }
+    }
+}
+
+/// GPU kernel organisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelArg {
+    /// Generate / intersect / shade / shadow kernels per bounce over compacted ray queues.
+    Wavefront,
+    /// One invocation traces a whole path.
+    Megakernel,
+}
+
+/// Arguments of `vlf-bake reference`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ReferenceArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output image: OpenEXR, float32 linear R, G, B, row 0 at the top (written atomically).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 1024)]
+    pub spp: u32,
+    /// Index of the glTF camera to render from (default 0).
+    #[arg(long, conflicts_with = "look_from")]
+    pub camera: Option<usize>,
+    /// Image size WIDTHxHEIGHT; the aspect ratio is width/height whatever the camera says.
+    #[arg(long, default_value = "256x256")]
+    pub size: Size,
+    /// Constant sky radiance `R,G,B` (or one value) seen by rays that leave the scene.
+    #[arg(long)]
+    pub sky: Option<Rgb>,
+    /// Seed of the random streams (the image is deterministic for a given seed).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Eye position `x,y,z` of a look-at camera (for scenes without a glTF camera).
+    #[arg(long, requires = "look_at")]
+    pub look_from: Option<Point>,
+    /// Target point `x,y,z` of the look-at camera.
+    #[arg(long, requires = "look_from")]
+    pub look_at: Option<Point>,
+    /// Vertical field of view of the look-at camera, in degrees.
+    #[arg(long, default_value_t = 60.0, requires = "look_from")]
+    pub fov: f32,
+    /// GPU kernel organisation (when the GPU is used).
+    #[arg(long, value_enum, default_value_t = KernelArg::Wavefront)]
+    pub gpu_kernel: KernelArg,
+    /// Worker threads of the CPU path tracer (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Print a machine-readable JSON summary on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What `--json` prints.
+#[derive(Serialize)]
+pub struct ReferenceReport {
+    pub scene: String,
+    pub output: String,
+    pub device: String,
+    pub adapter: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u32,
+    pub camera: String,
+    pub triangles: usize,
+    pub emissive_triangles: usize,
+    pub suns: usize,
+    pub mean_rgb: [f64; 3],
+    pub render_s: f64,
+    pub total_s: f64,
+    /// GPU wavefront only: camera, continuation and shadow rays traced.
+    pub rays: Option<u64>,
+    pub warnings: Vec<String>,
+}
+
+fn progress_bar(prefix: &str, total: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{prefix} [{bar:30}] {percent}% ETA {eta}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(prefix.to_string());
+    bar
+}
+
+/// Which tracer to use under `--device`.
+enum Tracer {
+    Cpu(String),
+    Gpu(Box<vlf_gpu::GpuContext>),
+}
+
+fn choose(device: DeviceArg) -> anyhow::Result<Tracer> {
+    match device {
+        DeviceArg::Cpu => Ok(Tracer::Cpu("--device cpu".into())),
+        DeviceArg::Gpu => Ok(Tracer::Gpu(Box::new(
+            vlf_gpu::GpuContext::new(&Default::default()).context("--device gpu")?,
+        ))),
+        DeviceArg::Auto => match vlf_gpu::GpuContext::new(&Default::default()) {
+            Ok(ctx) if !ctx.summary.is_software() => Ok(Tracer::Gpu(Box::new(ctx))),
+            Ok(ctx) => {
+                let why = format!(
+                    "the only GPU adapter is a software rasterizer ({}); the native CPU tracer is faster \
+                     (--device gpu forces it)",
+                    ctx.summary
+                );
+                log::info!("reference: {why}");
+                Ok(Tracer::Cpu(why))
+            }
+            Err(e) => {
+                log::info!("reference: no usable GPU ({e}); using the CPU path tracer");
+                Ok(Tracer::Cpu(e.to_string()))
+            }
+        },
+    }
+}
+
+/// `vlf-bake reference`: renders `args.scene` and writes `args.output`.
+pub fn reference_command(
+    args: &ReferenceArgs,
+    device: DeviceArg,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let t_total = Instant::now();
+    let scene = vlf_core::scene::load(&args.scene)?;
+    let sky = args.sky.map_or(Vec3::ZERO, |s| Vec3::from(s.0));
+    vlf_core::scene::check_lighting(&scene, Some(sky))?;
+    let Size(width, height) = args.size;
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: args.spp,
+        seed: args.seed,
+        sky,
+        threads: args.threads,
+    };
+    settings.validate().context("reference settings")?;
+    let (camera, camera_desc) = match (args.look_from, args.look_at) {
+        (Some(Point(from)), Some(Point(at))) => (
+            PinholeCamera::look_at(from, at, args.fov, width, height)
+                .context("--look-from/--look-at")?,
+            format!("look-from {from} look-at {at} fov {}°", args.fov),
+        ),
+        _ => {
+            let index = args.camera.unwrap_or(0);
+            let camera = PinholeCamera::from_scene(&scene, index, width, height).with_context(|| {
+                if scene.cameras.is_empty() {
+                    "the scene has no camera: give a viewpoint with --look-from x,y,z --look-at x,y,z \
+                     [--fov deg]"
+                } else {
+                    "--camera"
+                }
+            })?;
+            (camera, format!("camera {index}"))
+        }
+    };
+    let tracer = choose(device)?;
+    let prep = PreparedScene::new(&scene);
+    let total = u64::from(width) * u64::from(height) * u64::from(args.spp);
+    let show = !quiet && !args.json;
+    let t_render = Instant::now();
+    let (image, device_name, adapter, rays): (Image, &str, String, Option<u64>) = match &tracer {
+        Tracer::Cpu(why) => {
+            if show {
+                eprintln!("path tracing on the CPU ({why})");
+            }
+            let bar = show.then(|| progress_bar("path tracing (CPU)", total));
+            let image = pathtrace::render(&prep, &camera, &settings, &|done, _| {
+                if let Some(bar) = &bar {
+                    bar.set_position(done);
+                }
+            })?;
+            if let Some(bar) = bar {
+                bar.finish_and_clear();
+            }
+            (image, "cpu", "CPU path tracer".into(), None)
+        }
+        Tracer::Gpu(ctx) => {
+            let gpu = GpuPathTracer::new(&ctx.device);
+            let options = GpuRenderOptions {
+                kernel: match args.gpu_kernel {
+                    KernelArg::Wavefront => Kernel::Wavefront,
+                    KernelArg::Megakernel => Kernel::Megakernel,
+                },
+                ..Default::default()
+            };
+            let bar =
+                show.then(|| progress_bar(&format!("path tracing on {}", ctx.summary), total));
+            let (image, stats) = gpu
+                .render(ctx, &prep, &camera, &settings, &options, &|done, _| {
+                    if let Some(bar) = &bar {
+                        bar.set_position(done);
+                    }
+                })
+                .context("GPU path tracing")?;
+            if let Some(bar) = bar {
+                bar.finish_and_clear();
+            }
+            let rays = stats.extension_rays + stats.shadow_rays;
+            (
+                image,
+                "gpu",
+                ctx.summary.to_string(),
+                (rays > 0).then_some(rays),
+            )
+        }
+    };
+    let render_s = t_render.elapsed().as_secs_f64();
+    write_exr(&args.output, &image)?;
+    let summary = scene.summary();
+    let report = ReferenceReport {
+        scene: args.scene.display().to_string(),
+        output: args.output.display().to_string(),
+        device: device_name.into(),
+        adapter,
+        width,
+        height,
+        spp: args.spp,
+        seed: args.seed,
+        camera: camera_desc,
+        triangles: summary.triangles,
+        emissive_triangles: prep.lights.emitters.len(),
+        suns: prep.lights.suns.len(),
+        mean_rgb: image.mean(),
+        render_s,
+        total_s: t_total.elapsed().as_secs_f64(),
+        rays,
+        warnings: scene.warnings.clone(),
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else if !quiet {
+        let m = report.mean_rgb;
+        println!(
+            "rendered {} → {} ({}×{}, {} spp, {}) in {:.2} s on {}; mean RGB ({:.4}, {:.4}, {:.4})",
+            report.scene,
+            report.output,
+            width,
+            height,
+            args.spp,
+            report.camera,
+            render_s,
+            report.adapter,
+            m[0],
+            m[1],
+            m[2]
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_sizes_and_points() {
+        assert_eq!("256x128".parse::<Size>(), Ok(Size(256, 128)));
+        assert_eq!("64×64".parse::<Size>(), Ok(Size(64, 64)));
+        assert!("0x5".parse::<Size>().is_err());
+        assert!("256".parse::<Size>().is_err());
+        assert_eq!(
+            "1,2.5,-3".parse::<Point>(),
+            Ok(Point(Vec3::new(1.0, 2.5, -3.0)))
+        );
+        assert!("1,2".parse::<Point>().is_err());
+        assert!("1,nan,2".parse::<Point>().is_err());
+    }
+}

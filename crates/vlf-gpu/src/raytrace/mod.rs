@@ -1,0 +1,159 @@
+//! GPU ray tracing: a ray engine and a reference path tracer on top of it.
+//!
+//! * [`engine`]: the ray engine, in the spirit of Carr, Hall & Hart's "The Ray Engine" (2002):
+//!   WGSL compute kernels answer closest-hit and any-hit queries for batches of rays against the
+//!   binned-SAH BVH that `vlf_core::pathtrace` builds (uploaded unchanged: 32-byte nodes and
+//!   48-byte triangles, [`scene`]).
+//! * [`path`]: the GPU path tracer, the estimator of `vlf_core::pathtrace` (same conventions,
+//!   same per-path random streams) as a wavefront over the engine's kernels (generate →
+//!   closest hit → shade/NEE with compaction → any hit → resolve, per bounce) or as a
+//!   megakernel; both agree with the CPU tracer within noise.
+
+pub mod engine;
+pub mod path;
+pub mod scene;
+
+use wgpu::util::DeviceExt;
+
+pub use engine::{Query, RayBatch, RayEngine};
+pub use path::{GpuPathTracer, GpuRenderOptions, Kernel};
+pub use scene::PackedScene;
+
+use vlf_core::pathtrace::{PathTraceError, PreparedScene};
+
+/// Failures of GPU ray tracing.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RaytraceError {
+    /// Reading a result back failed (device lost).
+    #[error("reading GPU ray-tracing results back failed: {0}")]
+    Readback(#[from] wgpu::BufferAsyncError),
+    /// A buffer would exceed the device's limits.
+    #[error("{what} needs {bytes} bytes, more than the device allows in one buffer ({limit})")]
+    TooLarge {
+        /// Which buffer.
+        what: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The device limit.
+        limit: u64,
+    },
+    /// Invalid settings or camera.
+    #[error(transparent)]
+    Settings(#[from] PathTraceError),
+}
+
+/// A prepared scene uploaded to the GPU.
+pub struct GpuScene {
+    /// BVH nodes (`array<BvhNode>`).
+    pub nodes: wgpu::Buffer,
+    /// Leaf-order triangles (`array<RtTriangle>`).
+    pub triangles: wgpu::Buffer,
+    /// Shading data (`array<vec4<f32>>`, see [`scene`]).
+    pub blob: wgpu::Buffer,
+    /// Section offsets of the blob (its `blob` vector is emptied after upload).
+    pub packed: PackedScene,
+    /// Number of triangles.
+    pub triangle_count: u32,
+}
+
+impl GpuScene {
+    /// Uploads the BVH, the triangles and the packed shading data of `prep`.
+    pub fn upload(device: &wgpu::Device, prep: &PreparedScene) -> Result<Self, RaytraceError> {
+        let limit = device
+            .limits()
+            .max_storage_buffer_binding_size
+            .min(device.limits().max_buffer_size);
+        let mut packed = scene::pack(prep);
+        let check = |what: &'static str, bytes: usize| {
+            if bytes as u64 > limit {
+                Err(RaytraceError::TooLarge {
+                    what,
+                    bytes: bytes as u64,
+                    limit,
+                })
+            } else {
+                Ok(())
+            }
+        };
+        let nodes = prep.bvh.nodes();
+        let tris = &prep.bvh.triangles;
+        check("BVH", std::mem::size_of_val(nodes))?;
+        check("triangle buffer", std::mem::size_of_val(tris.as_slice()))?;
+        check("shading data and textures", packed.blob.len() * 16)?;
+        let init = |label: &str, contents: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let dummy = [vlf_core::pathtrace::RtTriangle::default()];
+        let tri_slice: &[vlf_core::pathtrace::RtTriangle] =
+            if tris.is_empty() { &dummy } else { tris };
+        let nodes = init("RayScene::nodes", bytemuck::cast_slice(nodes));
+        let triangles = init("RayScene::triangles", bytemuck::cast_slice(tri_slice));
+        let blob = init("RayScene::blob", bytemuck::cast_slice(&packed.blob));
+        packed.blob = Vec::new();
+        Ok(Self {
+            nodes,
+            triangles,
+            blob,
+            packed,
+            triangle_count: tris.len() as u32,
+        })
+    }
+}
+
+pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn uniform_entry<T>(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<T>() as u64),
+        },
+        count: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The traversal code is duplicated in both WGSL files (WGSL has no includes); keep the
+    /// copies identical.
+    #[test]
+    fn shared_traversal_is_identical() {
+        let section = |src: &str| {
+            let a = src.find("// BEGIN SHARED TRAVERSAL").expect("begin marker");
+            let b = src.find("// END SHARED TRAVERSAL").expect("end marker");
+            src[a..b].to_owned()
+        };
+        assert_eq!(
+            section(crate::shaders::RAYTRACE_ENGINE.source),
+            section(crate::shaders::RAYTRACE_PATH.source),
+            "the BVH traversal in raytrace_engine.wgsl and raytrace_path.wgsl differ"
+        );
+        let stack = format!(
+            "const BVH_STACK: u32 = {}u;",
+            vlf_core::pathtrace::bvh::MAX_DEPTH
+        );
+        assert!(
+            crate::shaders::RAYTRACE_ENGINE.source.contains(&stack),
+            "the WGSL traversal stack must match vlf_core's MAX_DEPTH ({stack})"
+        );
+    }
+}

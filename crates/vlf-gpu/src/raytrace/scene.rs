@@ -1,0 +1,156 @@
+//! The scene as the GPU ray engine and path tracer see it: the CPU tracer's BVH nodes and
+//! leaf-order triangles uploaded unchanged, plus one `array<vec4<f32>>` "blob" holding everything
+//! shading needs (so a shading kernel binds few storage buffers):
+//!
+//! | section | entries (vec4 each) |
+//! |---|---|
+//! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, 0, 0]` |
+//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, 0, 0]` |
+//! | emitters, at `emitter_base` | per emitter: `[triangle, area, pdf, cdf]` |
+//! | suns, at `sun_base` | per sun: `[to_sun xyz, pdf]`, `[irradiance rgb, cdf]` |
+//! | textures, at `tex_base` | per texture: `[texel offset, width, height, wrap_s | wrap_t << 4]`, then all texels (linear RGBA) |
+//!
+//! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns.
+
+use vlf_core::pathtrace::{NONE, PreparedScene};
+use vlf_core::scene::WrapMode;
+
+/// The packed shading data and where each section starts.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PackedScene {
+    pub blob: Vec<[f32; 4]>,
+    pub mat_base: u32,
+    pub emitter_base: u32,
+    pub emitter_count: u32,
+    pub sun_base: u32,
+    pub sun_count: u32,
+    pub tex_base: u32,
+    /// Probability of sampling an emitter rather than a sun.
+    pub p_emitters: f32,
+}
+
+fn bits(x: u32) -> f32 {
+    f32::from_bits(x)
+}
+
+fn wrap_code(w: WrapMode) -> u32 {
+    match w {
+        WrapMode::Repeat => 0,
+        WrapMode::ClampToEdge => 1,
+        WrapMode::MirroredRepeat => 2,
+    }
+}
+
+/// Packs the shading data of `prep` (see the module docs for the layout).
+pub fn pack(prep: &PreparedScene) -> PackedScene {
+    let mut blob: Vec<[f32; 4]> = Vec::new();
+    for uv in &prep.uvs {
+        blob.push([uv[0].x, uv[0].y, uv[1].x, uv[1].y]);
+        blob.push([uv[2].x, uv[2].y, 0.0, 0.0]);
+    }
+    let mat_base = blob.len() as u32;
+    for m in &prep.materials {
+        let b = m.base_color;
+        let e = m.emission;
+        blob.push([b.x, b.y, b.z, bits(m.base_texture.unwrap_or(NONE))]);
+        blob.push([e.x, e.y, e.z, bits(m.emissive_texture.unwrap_or(NONE))]);
+        blob.push([m.w_diffuse, m.alpha, 0.0, 0.0]);
+    }
+    let emitter_base = blob.len() as u32;
+    for e in &prep.lights.emitters {
+        blob.push([bits(e.tri), e.area, e.pdf, e.cdf]);
+    }
+    let sun_base = blob.len() as u32;
+    for s in &prep.lights.suns {
+        blob.push([s.to_sun.x, s.to_sun.y, s.to_sun.z, s.pdf]);
+        blob.push([s.irradiance.x, s.irradiance.y, s.irradiance.z, s.cdf]);
+    }
+    let tex_base = blob.len() as u32;
+    let textures = &prep.scene.textures;
+    let mut offset = tex_base as usize + textures.len();
+    let mut headers = Vec::with_capacity(textures.len());
+    for t in textures {
+        let usable = t.width > 0 && t.height > 0 && t.pixels.len() == (t.width * t.height) as usize;
+        let (w, h) = if usable { (t.width, t.height) } else { (0, 0) };
+        headers.push([
+            bits(offset as u32),
+            bits(w),
+            bits(h),
+            bits(wrap_code(t.wrap_s) | (wrap_code(t.wrap_t) << 4)),
+        ]);
+        if usable {
+            offset += t.pixels.len();
+        }
+    }
+    blob.extend(headers);
+    for t in textures {
+        if t.width > 0 && t.height > 0 && t.pixels.len() == (t.width * t.height) as usize {
+            blob.extend(t.pixels.iter().map(|p| p.to_array()));
+        }
+    }
+    if blob.is_empty() {
+        blob.push([0.0; 4]);
+    }
+    PackedScene {
+        blob,
+        mat_base,
+        emitter_base,
+        emitter_count: prep.lights.emitters.len() as u32,
+        sun_base,
+        sun_count: prep.lights.suns.len() as u32,
+        tex_base,
+        p_emitters: prep.lights.p_emitters,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec3, Vec4};
+    use vlf_core::scene::{FilterMode, SceneBuilder, Texture};
+
+    #[test]
+    fn sections_follow_each_other() {
+        let mut b = SceneBuilder::new();
+        let lamp = b.diffuse("lamp", Vec3::ONE, Vec3::splat(2.0));
+        let wall = b.diffuse("wall", Vec3::splat(0.5), Vec3::ZERO);
+        b.aabox(Vec3::splat(-1.0), Vec3::ONE, true, wall);
+        b.quad(
+            [
+                Vec3::new(-0.2, 0.9, -0.2),
+                Vec3::new(0.2, 0.9, -0.2),
+                Vec3::new(0.2, 0.9, 0.2),
+                Vec3::new(-0.2, 0.9, 0.2),
+            ],
+            lamp,
+        );
+        let mut scene = b.build("test");
+        scene.textures.push(Texture {
+            name: None,
+            width: 2,
+            height: 1,
+            pixels: vec![Vec4::ONE, Vec4::ZERO],
+            has_alpha: false,
+            wrap_s: WrapMode::MirroredRepeat,
+            wrap_t: WrapMode::ClampToEdge,
+            filter: FilterMode::Linear,
+            gltf_texture: 0,
+        });
+        let prep = PreparedScene::new(&scene);
+        let p = pack(&prep);
+        assert_eq!(p.mat_base as usize, 2 * prep.bvh.triangles.len());
+        assert_eq!(p.emitter_base, p.mat_base + 3 * 2);
+        assert_eq!(p.emitter_count, 2);
+        assert_eq!(p.sun_base, p.emitter_base + 2);
+        assert_eq!(p.tex_base, p.sun_base);
+        let header = p.blob[p.tex_base as usize];
+        assert_eq!(header[0].to_bits(), p.tex_base + 1);
+        assert_eq!((header[1].to_bits(), header[2].to_bits()), (2, 1));
+        assert_eq!(header[3].to_bits(), 2 | (1 << 4));
+        assert_eq!(p.blob.len() as u32, p.tex_base + 1 + 2);
+        assert_eq!(p.p_emitters, 1.0);
+        // The lamp's emitter entry points at a triangle of the lamp's material.
+        let e = p.blob[p.emitter_base as usize];
+        assert_eq!(prep.bvh.triangles[e[0].to_bits() as usize].material, lamp);
+    }
+}

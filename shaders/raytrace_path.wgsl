@@ -1,0 +1,865 @@
+// GPU reference path tracer: the estimator of vlf_core::pathtrace (same conventions, same random
+// streams) as a wavefront over the ray engine of raytrace_engine.wgsl, plus a megakernel variant.
+//
+// Wavefront, per wave of `path_count` paths (samples_per_wave samples of every pixel, ordered in
+// 8x8 pixel tiles so that primary rays are coherent):
+//   wave_begin -> generate -> repeat { engine closest_hit -> shade -> engine any_hit (shadow rays)
+//   -> resolve -> queue_end } until the queue is empty -> (after all waves) finish.
+// Queues: region A = [0, P), B = [P, 2P) of rays/paths ping-pong (shade compacts surviving paths
+// into the other region with an atomic counter); region S = [2P, 3P) holds each path's shadow ray
+// and its NEE contribution at the path's own index (no compaction, tmax < 0 = no shadow ray).
+// Radiance is summed per path slot in `accum` (one path per slot at a time: no atomics needed).
+
+struct BvhNode {
+    min: vec3<f32>,
+    index: u32,
+    max: vec3<f32>,
+    count: u32,
+}
+
+struct RtTriangle {
+    p0: vec3<f32>,
+    material: u32,
+    p1: vec3<f32>,
+    prim: u32,
+    p2: vec3<f32>,
+    light: u32,
+}
+
+struct Ray {
+    origin: vec3<f32>,
+    tmin: f32,
+    dir: vec3<f32>,
+    tmax: f32,
+}
+
+struct Hit {
+    t: f32,
+    tri: u32,
+    u: f32,
+    v: f32,
+}
+
+// Per-render globals (mirrors vlf_gpu::layout::RtGlobals). Blob offsets are in vec4 units.
+struct RtGlobals {
+    // xyz eye, w = tan(yfov / 2)
+    cam_pos: vec4<f32>,
+    // xyz forward, w = aspect (width / height)
+    cam_forward: vec4<f32>,
+    // xyz right, w = probability of sampling an emitter rather than a sun
+    cam_right: vec4<f32>,
+    // xyz up
+    cam_up: vec4<f32>,
+    // rgb sky radiance
+    sky: vec4<f32>,
+    width: u32,
+    height: u32,
+    seed: u32,
+    sample_base: u32,
+    samples_per_wave: u32,
+    path_count: u32,
+    tiles_x: u32,
+    max_groups: u32,
+    mat_base: u32,
+    emitter_base: u32,
+    emitter_count: u32,
+    sun_base: u32,
+    sun_count: u32,
+    tex_base: u32,
+    spp: u32,
+    rr_depth: u32,
+    tile_base: u32,
+    tile_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct RtBatch {
+    queue: u32,
+    base: u32,
+    next_queue: u32,
+    next_base: u32,
+    shadow_base: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct RtQueue {
+    count: atomic<u32>,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// Path state (mirrors vlf_gpu::layout::RtPath). In region S: throughput = NEE contribution.
+// pdf < 0: the last bounce was a delta (or camera) sample.
+struct RtPath {
+    throughput: vec3<f32>,
+    slot: u32,
+    rng_state: u32,
+    rng_inc: u32,
+    depth: u32,
+    pdf: f32,
+}
+
+@group(0) @binding(0) var<uniform> g: RtGlobals;
+@group(0) @binding(1) var<uniform> batch: RtBatch;
+
+@group(1) @binding(0) var<storage, read> nodes: array<BvhNode>;
+@group(1) @binding(1) var<storage, read> triangles: array<RtTriangle>;
+// Shading data, materials, emitters, suns, texture headers and texels (see raytrace/scene.rs).
+@group(1) @binding(2) var<storage, read> blob: array<vec4<f32>>;
+
+@group(2) @binding(0) var<storage, read_write> rays: array<Ray>;
+@group(2) @binding(1) var<storage, read> hits: array<Hit>;
+@group(2) @binding(2) var<storage, read_write> paths: array<RtPath>;
+@group(2) @binding(3) var<storage, read_write> queues: array<RtQueue>;
+@group(2) @binding(4) var<storage, read_write> accum: array<vec4<f32>>;
+
+// Control (wave_begin, queue_end, finish): queue counts, indirect dispatch arguments and the
+// finished chunk of the image. Queue 2 counts the wave's extension rays, queue 3 its shadow rays.
+@group(3) @binding(0) var<storage, read_write> ctl_queues: array<RtQueue>;
+@group(3) @binding(1) var<storage, read_write> ctl_args: array<vec4<u32>>;
+@group(3) @binding(2) var<storage, read_write> image: array<vec4<f32>>;
+
+// Shadow rays counted by one workgroup of `resolve`.
+var<workgroup> wg_shadow: atomic<u32>;
+
+const PI: f32 = 3.14159265358979;
+const INV_PI: f32 = 0.318309886183791;
+const TAU: f32 = 6.28318530717959;
+const FAR: f32 = 3.4028235e38;
+const RR_MAX_SURVIVAL: f32 = 0.95;
+
+// BEGIN SHARED TRAVERSAL (identical in raytrace_engine.wgsl and raytrace_path.wgsl; a Rust test
+// checks it)
+const NONE: u32 = 0xffffffffu;
+const BVH_STACK: u32 = 32u;
+// 1 + 2 gamma_3 for f32 (Ize 2013): widens box exits so rounding never culls a touched box.
+const SLAB_WIDEN: f32 = 1.0000004;
+
+// 1 / d with zero components replaced by a tiny signed value (no inf or NaN in the slab test).
+fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
+    let tiny = select(vec3<f32>(1e-30), vec3<f32>(-1e-30), d < vec3<f32>(0.0));
+    return 1.0 / select(d, tiny, abs(d) < vec3<f32>(1e-30));
+}
+
+// Entry distance into the node's box, or -1 when the ray misses it over (tmin, tmax).
+fn slab(n: BvhNode, o: vec3<f32>, inv: vec3<f32>, tmin: f32, tmax: f32) -> f32 {
+    let t0 = (n.min - o) * inv;
+    let t1 = (n.max - o) * inv;
+    let lo = min(t0, t1);
+    let hi = max(t0, t1);
+    let near = max(max(max(lo.x, lo.y), lo.z), tmin);
+    let far = min(min(hi.x, hi.y), hi.z) * SLAB_WIDEN;
+    if near <= min(far, tmax) {
+        return near;
+    }
+    return -1.0;
+}
+
+// Axes permuted so that z is the dominant axis kz (kx = kz + 1, ky = kz + 2 mod 3).
+fn permute(v: vec3<f32>, kz: u32) -> vec3<f32> {
+    if kz == 0u {
+        return v.yzx;
+    }
+    if kz == 1u {
+        return v.zxy;
+    }
+    return v;
+}
+
+// Watertight ray/triangle test (Woop, Benthin & Wald 2013) without the winding swap (both faces
+// count). Returns (t, b1, b2), t < 0 for no hit in (tmin, tmax).
+fn intersect(o: vec3<f32>, kz: u32, s: vec3<f32>, tri: RtTriangle, tmin: f32, tmax: f32) -> vec3<f32> {
+    let a = permute(tri.p0 - o, kz);
+    let b = permute(tri.p1 - o, kz);
+    let c = permute(tri.p2 - o, kz);
+    let ax = a.x - s.x * a.z;
+    let ay = a.y - s.y * a.z;
+    let bx = b.x - s.x * b.z;
+    let by = b.y - s.y * b.z;
+    let cx = c.x - s.x * c.z;
+    let cy = c.y - s.y * c.z;
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let rcp = 1.0 / det;
+    let t = s.z * (u * a.z + v * b.z + w * c.z) * rcp;
+    if !(t > tmin && t < tmax) {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    return vec3<f32>(t, v * rcp, w * rcp);
+}
+
+// Closest hit of the ray (any hit when `any_hit`), by stack traversal nearer child first.
+fn trace(ray: Ray, any_hit: bool) -> Hit {
+    var best = Hit(ray.tmax, NONE, 0.0, 0.0);
+    if !(ray.tmax > ray.tmin) {
+        return best;
+    }
+    let o = ray.origin;
+    let d = ray.dir;
+    let inv = safe_inverse(d);
+    let ad = abs(d);
+    var kz = 2u;
+    if ad.x >= ad.y && ad.x >= ad.z {
+        kz = 0u;
+    } else if ad.y >= ad.z {
+        kz = 1u;
+    }
+    let dp = permute(d, kz);
+    let s = vec3<f32>(dp.x / dp.z, dp.y / dp.z, 1.0 / dp.z);
+    var tmax = ray.tmax;
+    if slab(nodes[0], o, inv, ray.tmin, tmax) < 0.0 {
+        return best;
+    }
+    var stack: array<u32, BVH_STACK>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let n = nodes[node];
+        if n.count > 0u {
+            for (var i = n.index; i < n.index + n.count; i++) {
+                let h = intersect(o, kz, s, triangles[i], ray.tmin, tmax);
+                if h.x >= 0.0 {
+                    best = Hit(h.x, i, h.y, h.z);
+                    tmax = h.x;
+                    if any_hit {
+                        return best;
+                    }
+                }
+            }
+        } else {
+            let l = node + 1u;
+            let r = n.index;
+            let tl = slab(nodes[l], o, inv, ray.tmin, tmax);
+            let tr = slab(nodes[r], o, inv, ray.tmin, tmax);
+            if tl >= 0.0 && tr >= 0.0 {
+                if tl <= tr {
+                    stack[sp] = r;
+                    node = l;
+                } else {
+                    stack[sp] = l;
+                    node = r;
+                }
+                sp += 1u;
+                continue;
+            }
+            if tl >= 0.0 {
+                node = l;
+                continue;
+            }
+            if tr >= 0.0 {
+                node = r;
+                continue;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp -= 1u;
+        node = stack[sp];
+    }
+    return best;
+}
+// END SHARED TRAVERSAL
+
+// ---------------------------------------------------------------------------------------------
+// Random numbers (mirrors vlf_core::pathtrace::sampling::Rng).
+
+fn pcg_hash(x: u32) -> u32 {
+    let state = x * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn rng_next(p: ptr<function, RtPath>) -> u32 {
+    let old = (*p).rng_state;
+    (*p).rng_state = old * 747796405u + (*p).rng_inc;
+    let word = ((old >> ((old >> 28u) + 4u)) ^ old) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn rng_f32(p: ptr<function, RtPath>) -> f32 {
+    return f32(rng_next(p) >> 8u) * (1.0 / 16777216.0);
+}
+
+fn rng_2d(p: ptr<function, RtPath>) -> vec2<f32> {
+    let x = rng_f32(p);
+    return vec2<f32>(x, rng_f32(p));
+}
+
+// A new path for (pixel, sample) with the stream of Rng::for_path.
+fn path_init(pixel: u32, sample: u32, slot: u32) -> RtPath {
+    let a = pcg_hash(g.seed ^ 0x9e3779b9u);
+    let b = pcg_hash(a ^ sample);
+    let state = pcg_hash(b ^ (pixel * 0x85ebca6bu));
+    let inc = (pcg_hash(state ^ 0x68e31da4u) << 1u) | 1u;
+    var p = RtPath(vec3<f32>(1.0), slot, state, inc, 0u, -1.0);
+    rng_next(&p);
+    return p;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampling (mirrors vlf_core::pathtrace::sampling).
+
+fn basis_t(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+}
+
+fn basis_b(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+}
+
+fn to_world(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return basis_t(n) * v.x + basis_b(n) * v.y + n * v.z;
+}
+
+fn to_local(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(v, basis_t(n)), dot(v, basis_b(n)), dot(v, n));
+}
+
+fn cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = TAU * u.y;
+    return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+}
+
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    if a2 + b2 > 0.0 {
+        return a2 / (a2 + b2);
+    }
+    return 0.0;
+}
+
+fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let d = cos_h * cos_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+fn ggx_g1(cos_v: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    return 2.0 * cos_v / (cos_v + sqrt(a2 + (1.0 - a2) * cos_v * cos_v));
+}
+
+fn ggx_sample_vndf(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
+    let vh = normalize(vec3<f32>(alpha * wo.x, alpha * wo.y, wo.z));
+    let lensq = vh.x * vh.x + vh.y * vh.y;
+    var t1 = vec3<f32>(1.0, 0.0, 0.0);
+    if lensq > 0.0 {
+        t1 = vec3<f32>(-vh.y, vh.x, 0.0) / sqrt(lensq);
+    }
+    let t2 = cross(vh, t1);
+    let r = sqrt(u.x);
+    let phi = TAU * u.y;
+    let p1 = r * cos(phi);
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * r * sin(phi);
+    let nh = t1 * p1 + t2 * p2 + vh * sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));
+    return normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(nh.z, 1e-7)));
+}
+
+fn reflect_about(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return 2.0 * dot(v, n) * n - v;
+}
+
+// Wächter & Binder 2019 (mirrors vlf_core::pathtrace::geometry::offset_ray_origin).
+fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let of_i = vec3<i32>(256.0 * n);
+    let bits = bitcast<vec3<i32>>(p);
+    let moved = bitcast<vec3<f32>>(bits + select(of_i, -of_i, p < vec3<f32>(0.0)));
+    return select(moved, p + (1.0 / 65536.0) * n, abs(p) < vec3<f32>(1.0 / 32.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene data in the blob.
+
+struct Material {
+    base_color: vec3<f32>,
+    base_texture: u32,
+    emission: vec3<f32>,
+    emissive_texture: u32,
+    w_diffuse: f32,
+    alpha: f32,
+}
+
+fn material(index: u32) -> Material {
+    let o = g.mat_base + 3u * index;
+    let a = blob[o];
+    let b = blob[o + 1u];
+    let c = blob[o + 2u];
+    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y);
+}
+
+fn tri_uv(tri: u32, b1: f32, b2: f32) -> vec2<f32> {
+    let a = blob[2u * tri];
+    let b = blob[2u * tri + 1u];
+    return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
+}
+
+fn wrap(mode: u32, i: i32, size: u32) -> u32 {
+    let n = i32(max(size, 1u));
+    if mode == 1u {
+        return u32(clamp(i, 0, n - 1));
+    }
+    if mode == 2u {
+        let m = ((i % (2 * n)) + 2 * n) % (2 * n);
+        if m < n {
+            return u32(m);
+        }
+        return u32(2 * n - 1 - m);
+    }
+    return u32(((i % n) + n) % n);
+}
+
+fn texel(offset: u32, w: u32, h: u32, modes: u32, i: i32, j: i32) -> vec3<f32> {
+    let x = wrap(modes & 15u, i, w);
+    let y = wrap(modes >> 4u, j, h);
+    return blob[offset + y * w + x].xyz;
+}
+
+// Bilinear sample with wrap modes (mirrors vlf_core::bake::prep::sample); NONE reads 1.
+fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
+    if t == NONE {
+        return vec3<f32>(1.0);
+    }
+    let hd = blob[g.tex_base + t];
+    let offset = bitcast<u32>(hd.x);
+    let w = bitcast<u32>(hd.y);
+    let h = bitcast<u32>(hd.z);
+    let modes = bitcast<u32>(hd.w);
+    if w == 0u || h == 0u {
+        return vec3<f32>(1.0);
+    }
+    let x = clamp(uv.x * f32(w) - 0.5, -1e9, 1e9);
+    let y = clamp(uv.y * f32(h) - 0.5, -1e9, 1e9);
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i = i32(x0);
+    let j = i32(y0);
+    let top = mix(texel(offset, w, h, modes, i, j), texel(offset, w, h, modes, i + 1, j), fx);
+    let bottom = mix(texel(offset, w, h, modes, i, j + 1), texel(offset, w, h, modes, i + 1, j + 1), fx);
+    return mix(top, bottom, fy);
+}
+
+// ---------------------------------------------------------------------------------------------
+// BSDF (mirrors vlf_core::pathtrace::material).
+
+// Non-delta f(wo, wi) in xyz and the BSDF-sampling pdf in w.
+fn bsdf_eval(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>) -> vec4<f32> {
+    let cos_i = dot(n, wi);
+    let cos_o = dot(n, wo);
+    if cos_i <= 0.0 || cos_o <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    var f = color * (m.w_diffuse * INV_PI);
+    var pdf = m.w_diffuse * cos_i * INV_PI;
+    let w_metal = 1.0 - m.w_diffuse;
+    if m.alpha > 0.0 && w_metal > 0.0 {
+        let h = normalize(wi + wo);
+        let d = ggx_d(max(dot(n, h), 0.0), m.alpha);
+        let g1o = ggx_g1(cos_o, m.alpha);
+        let g1i = ggx_g1(cos_i, m.alpha);
+        f += color * (w_metal * d * g1o * g1i / (4.0 * cos_o * cos_i));
+        pdf += w_metal * g1o * d / (4.0 * cos_o);
+    }
+    return vec4<f32>(f, pdf);
+}
+
+struct BsdfSample {
+    wi: vec3<f32>,
+    weight: vec3<f32>,
+    // solid-angle pdf; -1 for the delta lobe, 0 for no sample
+    pdf: f32,
+}
+
+fn bsdf_sample(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BsdfSample {
+    var wi: vec3<f32>;
+    if u_lobe < m.w_diffuse {
+        wi = to_world(cosine_hemisphere(u), n);
+    } else if m.alpha == 0.0 {
+        return BsdfSample(normalize(reflect_about(wo, n)), color, -1.0);
+    } else {
+        let wo_l = to_local(wo, n);
+        let h = ggx_sample_vndf(normalize(wo_l), m.alpha, u);
+        wi = normalize(to_world(reflect_about(wo_l, h), n));
+    }
+    let cos_i = dot(n, wi);
+    if cos_i <= 0.0 {
+        return BsdfSample(wi, vec3<f32>(0.0), 0.0);
+    }
+    let e = bsdf_eval(m, color, n, wo, wi);
+    if e.w <= 0.0 {
+        return BsdfSample(wi, vec3<f32>(0.0), 0.0);
+    }
+    return BsdfSample(wi, e.xyz * (cos_i / e.w), e.w);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; sun:
+// [to_sun, pdf], [irradiance, cdf].
+
+fn pick_emitter(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = g.emitter_count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if blob[g.emitter_base + mid].w > u {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+fn pick_sun(u: f32) -> u32 {
+    for (var i = 0u; i < g.sun_count; i++) {
+        if blob[g.sun_base + 2u * i + 1u].w > u {
+            return i;
+        }
+    }
+    return g.sun_count - 1u;
+}
+
+fn emitter_pdf(light: u32, dist: f32, cos_light: f32) -> f32 {
+    if light == NONE || light >= g.emitter_count || cos_light <= 0.0 {
+        return 0.0;
+    }
+    let e = blob[g.emitter_base + light];
+    return g.cam_right.w * e.z * dist * dist / (e.y * cos_light);
+}
+
+fn emission_at(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
+    let m = material(triangles[tri].material);
+    return m.emission * sample_texture(m.emissive_texture, tri_uv(tri, b1, b2));
+}
+
+// ---------------------------------------------------------------------------------------------
+// One path vertex, shared by the wavefront `shade` kernel and the megakernel.
+
+struct Vertex {
+    // radiance to add now (emission or sky, throughput applied)
+    emitted: vec3<f32>,
+    // NEE: shadow ray (tmax < 0: none) and its unoccluded contribution (throughput applied)
+    shadow: Ray,
+    shadow_contrib: vec3<f32>,
+    // continuation ray (tmax < 0: the path ends)
+    next: Ray,
+}
+
+fn no_ray() -> Ray {
+    return Ray(vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), -1.0);
+}
+
+fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
+    var out = Vertex(vec3<f32>(0.0), no_ray(), vec3<f32>(0.0), no_ray());
+    let beta = (*p).throughput;
+    if hit.tri == NONE {
+        out.emitted = beta * g.sky.xyz;
+        return out;
+    }
+    let tri = triangles[hit.tri];
+    let ng = normalize(cross(tri.p1 - tri.p0, tri.p2 - tri.p0));
+    let d = ray.dir;
+    let cos_d = dot(d, ng);
+    let front = cos_d < 0.0;
+    let m = material(tri.material);
+    let uv = tri_uv(hit.tri, hit.u, hit.v);
+    if front && any(m.emission != vec3<f32>(0.0)) {
+        let le = m.emission * sample_texture(m.emissive_texture, uv);
+        var w = 1.0;
+        if (*p).pdf >= 0.0 {
+            w = power_heuristic((*p).pdf, emitter_pdf(tri.light, hit.t, -cos_d));
+        }
+        out.emitted = beta * le * w;
+    }
+    let n = select(-ng, ng, front);
+    let wo = -d;
+    let pos = tri.p0 * (1.0 - hit.u - hit.v) + tri.p1 * hit.u + tri.p2 * hit.v;
+    let color = m.base_color * sample_texture(m.base_texture, uv);
+    let origin = offset_origin(pos, n);
+    // Next-event estimation: one light sample.
+    let u_class = rng_f32(p);
+    let u_light = rng_f32(p);
+    let u_point = rng_2d(p);
+    if m.w_diffuse > 0.0 || m.alpha > 0.0 {
+        if u_class < g.cam_right.w {
+            let e = blob[g.emitter_base + pick_emitter(u_light)];
+            let lt = triangles[bitcast<u32>(e.x)];
+            let su = sqrt(u_point.x);
+            let b1 = 1.0 - su;
+            let b2 = u_point.y * su;
+            let x = lt.p0 * (1.0 - b1 - b2) + lt.p1 * b1 + lt.p2 * b2;
+            let nl = normalize(cross(lt.p1 - lt.p0, lt.p2 - lt.p0));
+            let to = x - pos;
+            let dist2 = dot(to, to);
+            let wi = to / sqrt(dist2);
+            let cos_l = -dot(wi, nl);
+            let cos_s = dot(n, wi);
+            if cos_l > 0.0 && cos_s > 0.0 {
+                let f = bsdf_eval(m, color, n, wo, wi);
+                let pdf_light = g.cam_right.w * e.z * dist2 / (e.y * cos_l);
+                let le = emission_at(bitcast<u32>(e.x), b1, b2);
+                let contrib = beta * f.xyz * le * (cos_s * power_heuristic(pdf_light, f.w) / pdf_light);
+                if any(contrib > vec3<f32>(0.0)) {
+                    let light_point = offset_origin(x, nl);
+                    out.shadow = Ray(origin, 0.0, light_point - origin, 1.0);
+                    out.shadow_contrib = contrib;
+                }
+            }
+        } else if g.sun_count > 0u {
+            let si = pick_sun(u_light);
+            let a = blob[g.sun_base + 2u * si];
+            let b = blob[g.sun_base + 2u * si + 1u];
+            let wi = a.xyz;
+            let cos_i = dot(n, wi);
+            if cos_i > 0.0 {
+                let f = bsdf_eval(m, color, n, wo, wi);
+                let contrib = beta * f.xyz * b.xyz * (cos_i / ((1.0 - g.cam_right.w) * a.w));
+                if any(contrib > vec3<f32>(0.0)) {
+                    out.shadow = Ray(origin, 0.0, wi, FAR);
+                    out.shadow_contrib = contrib;
+                }
+            }
+        }
+    }
+    // Continue the path.
+    let u_lobe = rng_f32(p);
+    let u_dir = rng_2d(p);
+    let s = bsdf_sample(m, color, n, wo, u_lobe, u_dir);
+    if s.pdf == 0.0 {
+        return out;
+    }
+    var nb = beta * s.weight;
+    if (*p).depth >= g.rr_depth {
+        let q = min(max(max(nb.x, nb.y), nb.z), RR_MAX_SURVIVAL);
+        if rng_f32(p) >= q {
+            return out;
+        }
+        nb = nb / q;
+    }
+    if all(nb == vec3<f32>(0.0)) {
+        return out;
+    }
+    (*p).throughput = nb;
+    (*p).depth += 1u;
+    (*p).pdf = s.pdf;
+    out.next = Ray(origin, 0.0, s.wi, FAR);
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Camera and the slot <-> (pixel, sample) mapping: slot = ((tile * k) + j) * 64 + local, with
+// 8x8-pixel tiles in row-major order and local = (y % 8) * 8 + x % 8.
+
+fn invocation(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
+    return (wid.y * nwg.x + wid.x) * 64u + lid;
+}
+
+// Starts the path of `slot`: its camera ray, or an inactive path (slot NONE) outside the image.
+fn camera_path(slot: u32, ray: ptr<function, Ray>) -> RtPath {
+    let local = slot % 64u;
+    let rest = slot / 64u;
+    let j = rest % g.samples_per_wave;
+    let tile = g.tile_base + rest / g.samples_per_wave;
+    let px = (tile % g.tiles_x) * 8u + local % 8u;
+    let py = (tile / g.tiles_x) * 8u + local / 8u;
+    if px >= g.width || py >= g.height {
+        *ray = no_ray();
+        return RtPath(vec3<f32>(0.0), NONE, 0u, 1u, 0u, -1.0);
+    }
+    var p = path_init(py * g.width + px, g.sample_base + j, slot);
+    let jit = rng_2d(&p);
+    let fx = (f32(px) + jit.x) / f32(g.width);
+    let fy = (f32(py) + jit.y) / f32(g.height);
+    let sx = (2.0 * fx - 1.0) * g.cam_pos.w * g.cam_forward.w;
+    let sy = (1.0 - 2.0 * fy) * g.cam_pos.w;
+    let dir = normalize(g.cam_forward.xyz + g.cam_right.xyz * sx + g.cam_up.xyz * sy);
+    *ray = Ray(g.cam_pos.xyz, 0.0, dir, FAR);
+    return p;
+}
+
+fn add_radiance(slot: u32, l: vec3<f32>) {
+    // Drop non-finite values like the CPU tracer does (x != x is NaN; inf > FAR).
+    let ok = all(l == l) && all(abs(l) <= vec3<f32>(FAR));
+    if ok && any(l != vec3<f32>(0.0)) {
+        accum[slot] += vec4<f32>(l, 0.0);
+    }
+}
+
+fn dispatch_args(count: u32) -> vec4<u32> {
+    let groups = max((count + 63u) / 64u, 1u);
+    if groups <= g.max_groups {
+        return vec4<u32>(groups, 1u, 1u, count);
+    }
+    let y = (groups + g.max_groups - 1u) / g.max_groups;
+    return vec4<u32>((groups + y - 1u) / y, y, 1u, count);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Wavefront kernels.
+
+@compute @workgroup_size(1)
+fn wave_begin() {
+    atomicStore(&ctl_queues[0].count, g.path_count);
+    atomicStore(&ctl_queues[1].count, 0u);
+    atomicStore(&ctl_queues[2].count, g.path_count);
+    atomicStore(&ctl_queues[3].count, 0u);
+    ctl_args[0] = dispatch_args(g.path_count);
+}
+
+@compute @workgroup_size(64)
+fn generate(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = invocation(wid, nwg, lid);
+    if i >= g.path_count {
+        return;
+    }
+    var ray: Ray;
+    let p = camera_path(i, &ray);
+    rays[i] = ray;
+    paths[i] = p;
+}
+
+@compute @workgroup_size(64)
+fn shade(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = invocation(wid, nwg, lid);
+    if i >= atomicLoad(&queues[batch.queue].count) {
+        return;
+    }
+    let si = batch.shadow_base + i;
+    rays[si] = no_ray();
+    var p = paths[batch.base + i];
+    if p.slot == NONE {
+        return;
+    }
+    let v = shade_vertex(&p, rays[batch.base + i], hits[batch.base + i]);
+    add_radiance(p.slot, v.emitted);
+    if v.shadow.tmax > 0.0 {
+        rays[si] = v.shadow;
+        paths[si] = RtPath(v.shadow_contrib, p.slot, 0u, 0u, 0u, 0.0);
+    }
+    if v.next.tmax > 0.0 {
+        let j = atomicAdd(&queues[batch.next_queue].count, 1u);
+        rays[batch.next_base + j] = v.next;
+        paths[batch.next_base + j] = p;
+    }
+}
+
+@compute @workgroup_size(64)
+fn resolve(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = invocation(wid, nwg, lid);
+    if lid == 0u {
+        atomicStore(&wg_shadow, 0u);
+    }
+    workgroupBarrier();
+    if i < atomicLoad(&queues[batch.queue].count) {
+        let si = batch.shadow_base + i;
+        if rays[si].tmax > 0.0 {
+            atomicAdd(&wg_shadow, 1u);
+            if hits[si].tri == NONE {
+                let rec = paths[si];
+                add_radiance(rec.slot, rec.throughput);
+            }
+        }
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        atomicAdd(&queues[3].count, atomicLoad(&wg_shadow));
+    }
+}
+
+@compute @workgroup_size(1)
+fn queue_end() {
+    let next = atomicLoad(&ctl_queues[batch.next_queue].count);
+    ctl_args[batch.next_queue] = dispatch_args(next);
+    atomicStore(&ctl_queues[batch.queue].count, 0u);
+    atomicAdd(&ctl_queues[2].count, next);
+}
+
+// image[i] = mean over the slots of chunk pixel i (tile-local order: i = tile * 64 + local) of
+// accum / spp, after all waves of the chunk.
+@compute @workgroup_size(64)
+fn finish(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = invocation(wid, nwg, lid);
+    if i >= g.tile_count * 64u {
+        return;
+    }
+    let tile = i / 64u;
+    let local = i % 64u;
+    var sum = vec3<f32>(0.0);
+    for (var j = 0u; j < g.samples_per_wave; j++) {
+        sum += accum[(tile * g.samples_per_wave + j) * 64u + local].xyz;
+    }
+    image[i] = vec4<f32>(sum / f32(g.spp), 1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Megakernel: one invocation traces a whole path (same estimator, same random stream).
+
+@compute @workgroup_size(64)
+fn megakernel(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = invocation(wid, nwg, lid);
+    if i >= g.path_count {
+        return;
+    }
+    var ray: Ray;
+    var p = camera_path(i, &ray);
+    if p.slot == NONE {
+        return;
+    }
+    var l = vec3<f32>(0.0);
+    loop {
+        let hit = trace(ray, false);
+        let v = shade_vertex(&p, ray, hit);
+        l += v.emitted;
+        if v.shadow.tmax > 0.0 && trace(v.shadow, true).tri == NONE {
+            l += v.shadow_contrib;
+        }
+        if v.next.tmax <= 0.0 {
+            break;
+        }
+        ray = v.next;
+    }
+    add_radiance(p.slot, l);
+}
