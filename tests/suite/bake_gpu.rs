@@ -61,10 +61,12 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
         ((ec.absorbed - eg.absorbed) / ec.absorbed).abs() < 1e-3,
         "{ec:?} vs {eg:?}"
     );
+    // The energy bookkeeping agrees too (its absolute balance at these coarse settings, 46
+    // directions and 32² rays, is a property of the discretisation, checked on the CPU at 126
+    // directions in vlf-core's tests/propagation.rs).
     assert!(
-        eg.relative_imbalance().abs() < 0.005,
-        "GPU imbalance {:?}",
-        eg
+        (eg.relative_imbalance() - ec.relative_imbalance()).abs() < 1e-4,
+        "GPU imbalance {eg:?} vs CPU {ec:?}"
     );
 }
 

@@ -57,7 +57,10 @@ pub fn ci(root: &Path) -> Result<()> {
             "warnings",
         ]),
     )?;
-    step("tests", cargo(root).args(["test", "--workspace"]))?;
+    step(
+        "tests",
+        cargo(root).args(["test", "--workspace", "--no-fail-fast"]),
+    )?;
     crate::assets::check(root)?;
     crate::validate::validate_gltf(root, &crate::assets::asset_files(&root.join("assets")))?;
     eprintln!("ci: all steps passed in {:.0} s", t.elapsed().as_secs_f64());

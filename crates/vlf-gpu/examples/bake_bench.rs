@@ -59,6 +59,7 @@ fn room_with_boxes(k: u32) -> Scene {
 }
 
 struct Row {
+    tile_bytes: usize,
     case: String,
     device: String,
     adapter: String,
@@ -91,6 +92,7 @@ fn run(case: &str, scene: &Scene, params: &BakeParams, gpu: Option<&vlf_gpu::Gpu
         out.iterations
     );
     Row {
+        tile_bytes: out.tiles.as_ref().map_or(0, |t| t.1.len() * 16),
         case: case.into(),
         device: device.into(),
         adapter,
@@ -117,42 +119,63 @@ fn main() {
     let cornell = vlf_core::scene::load(&root.join("assets/cornell-box/cornell-box.gltf"))
         .expect("Cornell box");
     let mut rows = Vec::new();
-    let paper = BakeParams::paper();
-    let auto = Quality::Auto.params();
-    for gpu in [ctx.as_ref(), None] {
-        if gpu.is_none() && ctx.is_some() && quick {
-            continue;
+    if args.iter().any(|a| a == "--mirror") {
+        // Mirror tiles against the number of directions (the original VLF paper: linear).
+        let mirror = vlf_core::scene::load(&root.join("assets/cornell-mirror/cornell-mirror.gltf"))
+            .expect("mirror box");
+        for l in [46u32, 126, 501, 1001, 2001] {
+            let p = BakeParams {
+                directions: l,
+                resolution: 32,
+                tile: 8,
+                iterations: Iterations::Fixed(2),
+                ..BakeParams::paper()
+            };
+            rows.push(run(
+                &format!("mirror-{l}-directions"),
+                &mirror,
+                &p,
+                ctx.as_ref(),
+            ));
         }
-        rows.push(run("cornell-paper", &cornell, &paper, gpu));
-        if !quick {
-            rows.push(run("cornell-auto", &cornell, &auto, gpu));
+    } else {
+        let paper = BakeParams::paper();
+        let auto = Quality::Auto.params();
+        for gpu in [ctx.as_ref(), None] {
+            if gpu.is_none() && ctx.is_some() && quick {
+                continue;
+            }
+            rows.push(run("cornell-paper", &cornell, &paper, gpu));
+            if !quick {
+                rows.push(run("cornell-auto", &cornell, &auto, gpu));
+            }
         }
-    }
-    // Face-count ladder at reduced settings (126 directions, 64² rays, 2 iterations).
-    let ladder = BakeParams {
-        directions: 126,
-        resolution: 64,
-        tile: 4,
-        iterations: Iterations::Fixed(2),
-        ..BakeParams::paper()
-    };
-    let ks: &[u32] = if quick { &[1, 4] } else { &[1, 2, 4, 8, 16] };
-    for &k in ks {
-        let scene = room_with_boxes(k);
-        rows.push(run(
-            &format!("ladder-{}-faces", scene.faces.len()),
-            &scene,
-            &ladder,
-            ctx.as_ref(),
-        ));
+        // Face-count ladder at reduced settings (126 directions, 64² rays, 2 iterations).
+        let ladder = BakeParams {
+            directions: 126,
+            resolution: 64,
+            tile: 4,
+            iterations: Iterations::Fixed(2),
+            ..BakeParams::paper()
+        };
+        let ks: &[u32] = if quick { &[1, 4] } else { &[1, 2, 4, 8, 16] };
+        for &k in ks {
+            let scene = room_with_boxes(k);
+            rows.push(run(
+                &format!("ladder-{}-faces", scene.faces.len()),
+                &scene,
+                &ladder,
+                ctx.as_ref(),
+            ));
+        }
     }
     let mut csv = String::from(
-        "case,device,adapter,faces,triangles,texels,directions,resolution,tile,iterations,seconds\n",
+        "case,device,adapter,faces,triangles,texels,directions,resolution,tile,iterations,seconds,tile_bytes\n",
     );
     for r in &rows {
         let s = r.prep.summary();
         csv += &format!(
-            "{},{},\"{}\",{},{},{},{},{},{},{},{:.3}\n",
+            "{},{},\"{}\",{},{},{},{},{},{},{},{:.3},{}\n",
             r.case,
             r.device,
             r.adapter,
@@ -163,7 +186,8 @@ fn main() {
             r.params.resolution,
             r.params.tile,
             r.iterations,
-            r.seconds
+            r.seconds,
+            r.tile_bytes
         );
     }
     print!("{csv}");

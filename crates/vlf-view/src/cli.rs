@@ -74,7 +74,8 @@ pub struct Cli {
     pub screenshot: Option<PathBuf>,
 
     /// Headless benchmark: render N interactive frames (the five passes + display, one sample
-    /// per pixel) at --size, print frame times and GPU pass times, and exit.
+    /// per pixel) at --size along a recorded camera path (a full turn in place from --camera),
+    /// print frame times (median and spread) and GPU pass times, and exit.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub bench_frames: Option<u32>,
 

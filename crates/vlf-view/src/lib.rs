@@ -330,10 +330,18 @@ pub fn bench(
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("Bench::encoder"),
             });
+        // The recorded camera path: a full turn in place about the up axis, starting from the
+        // requested camera, so frames see every part of the scene (near and far, diffuse and
+        // mirror surfaces, background).
+        let turn = glam::Quat::from_rotation_y(std::f32::consts::TAU * i as f32 / frames as f32);
+        let cam = CameraView {
+            rotation: turn * camera.rotation,
+            ..*camera
+        };
         renderer.render_to_view(
             ctx,
             &mut encoder,
-            camera,
+            &cam,
             &view,
             format,
             width,
