@@ -57,14 +57,49 @@ pub fn ci(root: &Path) -> Result<()> {
             "warnings",
         ]),
     )?;
-    step(
-        "tests",
-        cargo(root).args(["test", "--workspace", "--no-fail-fast"]),
-    )?;
+    let (passed, failed, ignored) = test_step(root)?;
     crate::assets::check(root)?;
     crate::validate::validate_gltf(root, &crate::assets::asset_files(&root.join("assets")))?;
     eprintln!("ci: all steps passed in {:.0} s", t.elapsed().as_secs_f64());
+    // One closing line for the whole suite (cargo prints one per test binary).
+    println!("ci: {passed} passed, {failed} failed, {ignored} skipped");
     Ok(())
+}
+
+/// Runs `cargo test --workspace --no-fail-fast`, echoing its output, and sums the per-binary
+/// "test result" lines.
+fn test_step(root: &Path) -> Result<(u64, u64, u64)> {
+    use std::io::{BufRead, BufReader};
+    let mut cmd = cargo(root);
+    cmd.args(["test", "--workspace", "--no-fail-fast"])
+        .stdout(std::process::Stdio::piped());
+    eprintln!("==> tests: {cmd:?}");
+    let t = Instant::now();
+    let mut child = cmd.spawn().context("cannot start tests")?;
+    let out = child.stdout.take().context("no stdout")?;
+    let (mut passed, mut failed, mut ignored) = (0u64, 0u64, 0u64);
+    for line in BufReader::new(out).lines() {
+        let line = line?;
+        println!("{line}");
+        if let Some(rest) = line.strip_prefix("test result: ") {
+            let num = |key: &str| -> u64 {
+                rest.split(';')
+                    .find(|p| p.trim_end().ends_with(key))
+                    .and_then(|p| p.split_whitespace().rev().nth(1)?.parse().ok())
+                    .unwrap_or(0)
+            };
+            passed += num("passed");
+            failed += num("failed");
+            ignored += num("ignored");
+        }
+    }
+    let status = child.wait()?;
+    eprintln!("<== tests: {:.1} s", t.elapsed().as_secs_f64());
+    if !status.success() {
+        println!("ci: {passed} passed, {failed} failed, {ignored} skipped");
+        bail!("tests failed ({status})");
+    }
+    Ok((passed, failed, ignored))
 }
 
 /// The main job on the bundled default scene: bake the Cornell box, render stills from its
