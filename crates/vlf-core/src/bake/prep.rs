@@ -12,7 +12,7 @@ use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
 
 use super::params::{BakeParams, ParamsError};
-use crate::scene::{MaterialKind, Scene, Texture, WrapMode};
+use crate::scene::{MaterialKind, Scene, Texture};
 
 /// A triangle in VLF coordinates (48 bytes; mirrors WGSL `BakeTriangle`).
 #[repr(C)]
@@ -381,18 +381,14 @@ pub fn sample(tex: &Texture, uv: Vec2) -> Vec4 {
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let texel = |i: i64, j: i64| {
-        let i = wrap(tex.wrap_s, i, tex.width);
-        let j = wrap(tex.wrap_t, j, tex.height);
+        let i = tex.wrap_s.wrap(i, tex.width);
+        let j = tex.wrap_t.wrap(j, tex.height);
         tex.pixels[(j as usize) * tex.width as usize + i as usize]
     };
     let (i, j) = (x0 as i64, y0 as i64);
     let top = texel(i, j).lerp(texel(i + 1, j), fx);
     let bottom = texel(i, j + 1).lerp(texel(i + 1, j + 1), fx);
     top.lerp(bottom, fy)
-}
-
-fn wrap(mode: WrapMode, i: i64, size: u32) -> u32 {
-    mode.wrap(i, size)
 }
 
 #[cfg(test)]

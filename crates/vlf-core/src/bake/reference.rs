@@ -121,6 +121,22 @@ pub struct EnergyStats {
 }
 
 impl EnergyStats {
+    /// Adds one finished iteration's terms (shared by the CPU and GPU propagators).
+    pub fn record(&mut self, e: &IterationEnergy) {
+        self.injected += e.injected;
+        self.absorbed += e.absorbed;
+        self.escaped += e.escaped;
+        self.unshot = e.next;
+        self.unshot_history.push(e.next);
+    }
+
+    /// Whether the unshot power is at most `threshold` × (emitted + injected); never for a
+    /// threshold of 0 (fixed iteration counts).
+    pub fn converged(&self, threshold: f32) -> bool {
+        let src = self.emitted + self.injected;
+        threshold > 0.0 && (src <= 0.0 || self.unshot <= f64::from(threshold) * src)
+    }
+
     /// (emitted + injected) − (absorbed + escaped + unshot), relative to emitted + injected.
     pub fn relative_imbalance(&self) -> f64 {
         let src = self.emitted + self.injected;
@@ -833,10 +849,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         emitted: power(&scene.emission, &scene.texel_area),
         ..Default::default()
     };
-    let (max_iter, threshold) = match params.iterations {
-        Iterations::Fixed(n) => (n, 0.0),
-        Iterations::Converge { threshold, max } => (max, threshold),
-    };
+    let (max_iter, threshold) = stopping(params.iterations);
     let mut iterations = 0;
     for it in 0..max_iter {
         let first = it == 0;
@@ -885,22 +898,13 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
             e.next,
             100.0 * (e.sent - e.received - e.escaped) / e.sent.max(1e-30)
         );
-        energy.injected += e.injected;
-        energy.absorbed += e.absorbed;
-        energy.escaped += e.escaped;
-        energy.unshot = e.next;
-        energy.unshot_history.push(e.next);
-        for (t, n) in total.iter_mut().zip(&next) {
-            *t = (Vec4::from(*t) + Vec4::from(*n)).into();
-        }
-        for (t, n) in total_tiles.iter_mut().zip(&next_tiles) {
-            *t = (Vec4::from(*t) + Vec4::from(*n)).into();
-        }
+        energy.record(&e);
+        accumulate(&mut total, &next);
+        accumulate(&mut total_tiles, &next_tiles);
         std::mem::swap(&mut unshot, &mut next);
         std::mem::swap(&mut unshot_tiles, &mut next_tiles);
         iterations = it + 1;
-        let src = energy.emitted + energy.injected;
-        if threshold > 0.0 && (src <= 0.0 || e.next <= f64::from(threshold) * src) {
+        if energy.converged(threshold) {
             break;
         }
     }
@@ -914,6 +918,21 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
 
 fn sum3(v: Vec3) -> f64 {
     f64::from(v.x) + f64::from(v.y) + f64::from(v.z)
+}
+
+/// (maximum iterations, convergence threshold or 0) of a stopping rule.
+pub fn stopping(rule: Iterations) -> (u32, f32) {
+    match rule {
+        Iterations::Fixed(n) => (n, 0.0),
+        Iterations::Converge { threshold, max } => (max, threshold),
+    }
+}
+
+/// `total += next`, element by element.
+pub fn accumulate(total: &mut [[f32; 4]], next: &[[f32; 4]]) {
+    for (t, n) in total.iter_mut().zip(next) {
+        *t = (Vec4::from(*t) + Vec4::from(*n)).into();
+    }
 }
 
 /// Σ π·L·area over texels, summed over channels.

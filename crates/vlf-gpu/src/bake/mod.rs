@@ -18,7 +18,7 @@ use vlf_core::bake::reference::{
     self, EnergyStats, Propagated, SpecularSetup, TexelAccum, TransportDir, bin_triangles, project,
 };
 use vlf_core::bake::tiles;
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
+use vlf_core::bake::{BakeParams, BakeScene};
 use vlf_core::directions::DirectionSet;
 use vlf_core::psf::PsfGrid;
 use wgpu::util::DeviceExt;
@@ -503,10 +503,7 @@ pub fn propagate(
             .sum(),
         ..Default::default()
     };
-    let (max_iter, threshold) = match params.iterations {
-        Iterations::Fixed(k) => (k, 0.0),
-        Iterations::Converge { threshold, max } => (max, threshold),
-    };
+    let (max_iter, threshold) = reference::stopping(params.iterations);
     let mut iterations = 0;
     for it in 0..max_iter {
         let first = it == 0;
@@ -607,9 +604,7 @@ pub fn propagate(
                 .sum::<f64>();
             e.sent += reference::tile_power(&sp.index, &unshot_tiles, set, &grid);
             e.next += reference::tile_power(&sp.index, &next_tiles_host, set, &grid);
-            for (t, nx) in total_tiles.iter_mut().zip(&next_tiles_host) {
-                *t = (Vec4::from(*t) + Vec4::from(*nx)).into();
-            }
+            reference::accumulate(&mut total_tiles, &next_tiles_host);
             unshot_tiles = next_tiles_host;
         }
         log::debug!(
@@ -619,18 +614,11 @@ pub fn propagate(
             e.escaped,
             e.next
         );
-        energy.injected += e.injected;
-        energy.absorbed += e.absorbed;
-        energy.escaped += e.escaped;
-        energy.unshot = e.next;
-        energy.unshot_history.push(e.next);
-        for (t, nx) in total.iter_mut().zip(&next) {
-            *t = (Vec4::from(*t) + Vec4::from(*nx)).into();
-        }
+        energy.record(&e);
+        reference::accumulate(&mut total, &next);
         std::mem::swap(&mut unshot_host, &mut next);
         iterations = it + 1;
-        let src = energy.emitted + energy.injected;
-        if threshold > 0.0 && (src <= 0.0 || e.next <= f64::from(threshold) * src) {
+        if energy.converged(threshold) {
             break;
         }
     }
