@@ -2,6 +2,7 @@
 //!
 
 mod assets;
+mod chart;
 mod ci;
 mod validate;
 
@@ -15,6 +16,8 @@ tasks:
   ci            the whole test suite: rustfmt, clippy, all tests, asset checks (what .ci/run runs)
   demo          the main job on the bundled Cornell box
   bench [--quick]  bake benchmarks (release build) → docs/bench/bake.csv
+  chart [--quick] [--redraw] [SCENE...]  speed against accuracy on the shared scenes: references,
+                `vlf-bake sweep`, SVG charts and summary → docs/bench/chart/
   assets        regenerate the Cornell box scenes under assets/
   check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
   validate-gltf FILE...  run Khronos glTF-Validator on the given files";
@@ -50,6 +53,7 @@ fn main() -> Result<()> {
         Some("ci") => ci::ci(&root)?,
         Some("demo") => ci::demo(&root)?,
         Some("bench") => ci::bench(&root, std::env::args().any(|a| a == "--quick"))?,
+        Some("chart") => chart::chart(&root, &std::env::args().skip(2).collect::<Vec<_>>())?,
         Some("-h" | "--help" | "help") => println!("{USAGE}"),
         _ => bail!("{USAGE}"),
     }

@@ -651,9 +651,15 @@ impl ReportCtx<'_> {
 pub fn write_json_atomic(path: &Path, value: &impl Serialize) -> anyhow::Result<()> {
     let mut bytes = serde_json::to_vec_pretty(value)?;
     bytes.push(b'\n');
+    write_bytes_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to `path` through a synced temporary file in the same directory and a
+/// rename: readers see the old file or the new one, never a partial one.
+pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     let name = path
         .file_name()
-        .ok_or_else(|| anyhow::anyhow!("the report path has no file name"))?;
+        .ok_or_else(|| anyhow::anyhow!("{} has no file name", path.display()))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -666,7 +672,7 @@ pub fn write_json_atomic(path: &Path, value: &impl Serialize) -> anyhow::Result<
     ));
     let result = (|| -> std::io::Result<()> {
         let mut f = fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
+        f.write_all(bytes)?;
         f.sync_all()?;
         fs::rename(&tmp, path)
     })();

@@ -223,6 +223,11 @@ pub enum Command {
     /// Render an unbiased path-traced reference image (EXR) with the conventions of the shared
     /// Mitsuba references, to validate bakes without any other tool.
     Reference(crate::reference::ReferenceArgs),
+    /// Speed against accuracy on one scene: bake over a grid of parameters, render one view of
+    /// each, compare with a reference image; the path tracer's error-vs-time curve and the
+    /// matrix radiosity baseline on the same view. Writes one CSV row per point (see
+    /// docs/ACCURACY.md; `cargo xtask chart` runs it over the shared scenes and draws charts).
+    Sweep(crate::sweep::SweepArgs),
     /// Describe a light-field file: parameters, counts, memory by section, bake statistics.
     Info {
         /// The light-field file.

@@ -6,6 +6,7 @@ pub mod batch;
 pub mod cli;
 pub mod memory;
 pub mod reference;
+pub mod sweep;
 
 use anyhow::Context as _;
 use cli::{Cli, Command, DeviceArg};
@@ -107,6 +108,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         }),
         Command::Info { file, json } => info(&file, json),
         Command::Reference(args) => reference::reference_command(&args, cli.device, cli.quiet),
+        Command::Sweep(args) => sweep::sweep_command(&args, cli.device, cli.quiet),
         Command::Compare {
             test,
             reference,

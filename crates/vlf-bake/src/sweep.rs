@@ -1,0 +1,505 @@
+//! `vlf-bake sweep`: speed against accuracy on one scene (issue 8). Bakes the scene over a grid
+//! of parameters, renders one viewpoint of each bake with the five-pass renderer, and compares
+//! it with a reference image; the path tracer (an error-vs-time curve over samples per pixel)
+//! and the matrix radiosity baseline (diffuse scenes) are measured on the same view. One CSV row
+//! per point, rewritten atomically after every point so an interrupted sweep keeps what it
+//! measured. `cargo xtask chart` runs this over the shared scenes and draws the charts.
+//!
+//! What each time column means (all wall-clock seconds on the machine that ran the sweep):
+//! * `vlf`: load + plan + prepare + propagate + write of `vlf-bake bake` (the product's bake);
+//!   the image is then rendered from the file as read back, as the viewer would.
+//! * `pathtrace`: BVH build + rendering this one view at `spp` samples per pixel (all cores).
+//! * `radiosity`: form factors (ray casting, all cores) + solve.
+//!
+//! `render_s` is the time of the still render of the light field (16 jittered samples per
+//! pixel by default); a walkthrough pays it per frame, the path tracer pays `time_s` per view.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use glam::Vec3;
+use vlf_core::image::{self, Image};
+use vlf_core::lightfield::LightField;
+use vlf_core::pathtrace::{self, PinholeCamera, PreparedScene, RenderSettings};
+use vlf_gpu::GpuContext;
+use vlf_gpu::render::{CameraView, Renderer};
+
+use crate::bake::bake_scene;
+use crate::batch::write_bytes_atomic;
+use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg, Rgb};
+use crate::memory::Budget;
+use crate::reference::Point;
+use crate::{Compute, open_device};
+
+/// How many parameter sets to bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GridArg {
+    /// The presets (draft, auto) and directions {126, 606} × resolution {32, 64}.
+    Quick,
+    /// Quick plus the high preset, directions {246, 1126}, resolution 128, and variations of
+    /// iterations, perturbed directions and tile size around the default.
+    Full,
+}
+
+/// Arguments of `vlf-bake sweep`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SweepArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Reference image (linear EXR, e.g. from `vlf-bake reference` or ../shared/reference);
+    /// every render is made at its size.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Output CSV (written atomically after every point).
+    #[arg(long)]
+    pub csv: PathBuf,
+    /// Parameter grid.
+    #[arg(long, value_enum, default_value_t = GridArg::Full)]
+    pub grid: GridArg,
+    /// Index of the glTF camera to render (default 0).
+    #[arg(long, conflicts_with = "look_from")]
+    pub camera: Option<usize>,
+    /// Eye `x,y,z` of a look-at camera (world space, for scenes without a glTF camera).
+    #[arg(long, requires = "look_at")]
+    pub look_from: Option<Point>,
+    /// Target `x,y,z` of the look-at camera.
+    #[arg(long, requires = "look_from")]
+    pub look_at: Option<Point>,
+    /// Vertical field of view of the look-at camera, degrees.
+    #[arg(long, default_value_t = 60.0, requires = "look_from")]
+    pub fov: f32,
+    /// Constant sky radiance `R,G,B` for the bakes, the path tracer and radiosity alike.
+    #[arg(long)]
+    pub sky: Option<Rgb>,
+    /// Path tracer curve: 1, 2, 4, … up to this many samples per pixel (0: no path tracer).
+    #[arg(long, default_value_t = 256)]
+    pub spp_max: u32,
+    /// Seed of the path tracer's curve (use one that differs from the reference's).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u32,
+    /// Jittered samples per pixel of the light-field renders (the reference's pixel is an
+    /// average over the pixel square).
+    #[arg(long, default_value_t = 16)]
+    pub render_spp: u32,
+    /// Skip the matrix radiosity baseline.
+    #[arg(long)]
+    pub no_radiosity: bool,
+    /// Also write every rendered image as EXR into this directory.
+    #[arg(long)]
+    pub images: Option<PathBuf>,
+}
+
+/// One measured point.
+#[derive(Clone, Debug, Default)]
+pub struct Row {
+    pub scene: String,
+    /// `vlf`, `pathtrace`, `radiosity_gs` or `radiosity_jacobi_gpu`.
+    pub method: &'static str,
+    pub label: String,
+    /// The `--quality` preset this point is (`draft`, `auto`, `high`), empty for grid points.
+    pub preset: String,
+    pub directions: u32,
+    pub resolution: u32,
+    pub tile: u32,
+    pub texel_scale: f32,
+    pub perturb: u32,
+    /// `auto:THRESHOLD` or the fixed count asked for.
+    pub iterations_rule: String,
+    pub iterations: u32,
+    pub spp: u32,
+    pub rays_per_patch: u32,
+    /// Time to produce the radiance (see the module documentation).
+    pub time_s: f64,
+    pub render_s: f64,
+    /// Peak working memory of the method: the bake's memory plan (host + GPU buffers), the
+    /// radiosity matrix, or the path tracer's BVH and frame buffer.
+    pub work_bytes: u64,
+    /// What is kept for rendering: the light-field file's size (0 for the path tracer).
+    pub stored_bytes: u64,
+    pub rel_mse: f64,
+    pub flip: f64,
+    pub mse: f64,
+    pub device: String,
+}
+
+const HEADER: &str = "scene,method,label,preset,directions,resolution,tile,texel_scale,perturb,\
+iterations_rule,iterations,spp,rays_per_patch,time_s,render_s,work_bytes,stored_bytes,rel_mse,\
+flip,mse,device";
+
+impl Row {
+    fn csv(&self) -> String {
+        let clean = |s: &str| s.replace([',', '\n', '"'], " ");
+        format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{},{},{:.6e},{:.6},{:.6e},{}",
+            clean(&self.scene),
+            self.method,
+            clean(&self.label),
+            self.preset,
+            self.directions,
+            self.resolution,
+            self.tile,
+            self.texel_scale,
+            self.perturb,
+            self.iterations_rule,
+            self.iterations,
+            self.spp,
+            self.rays_per_patch,
+            self.time_s,
+            self.render_s,
+            self.work_bytes,
+            self.stored_bytes,
+            self.rel_mse,
+            self.flip,
+            self.mse,
+            clean(&self.device),
+        )
+    }
+}
+
+/// One bake of the grid: a preset plus explicit overrides.
+#[derive(Clone, Debug)]
+struct Point3 {
+    label: String,
+    preset: Option<QualityArg>,
+    directions: Option<u32>,
+    resolution: Option<u32>,
+    tile: Option<u32>,
+    iterations: Option<IterationsArg>,
+    perturb: Option<u32>,
+}
+
+impl Point3 {
+    fn preset(q: QualityArg, name: &str) -> Self {
+        Self {
+            label: name.into(),
+            preset: Some(q),
+            directions: None,
+            resolution: None,
+            tile: None,
+            iterations: None,
+            perturb: None,
+        }
+    }
+
+    fn grid(l: u32, n: u32) -> Self {
+        Self {
+            label: format!("l={l} N={n}"),
+            preset: None,
+            directions: Some(l),
+            resolution: Some(n),
+            tile: None,
+            iterations: None,
+            // Grid points isolate directions × resolution: no perturbation unless asked.
+            perturb: Some(0),
+        }
+    }
+
+    fn args(&self, sky: Option<Rgb>) -> BakeArgs {
+        BakeArgs {
+            quality: self.preset.unwrap_or(QualityArg::Auto),
+            directions: self.directions,
+            resolution: self.resolution,
+            tile: self.tile,
+            iterations: self.iterations,
+            threshold: None,
+            perturb: self.perturb,
+            texel_scale: None,
+            sky,
+            sky_if_unlit: None,
+            max_memory: None,
+        }
+    }
+}
+
+/// The bakes of a grid, cheapest first (an interrupted sweep keeps the cheap points).
+fn plan(grid: GridArg) -> Vec<Point3> {
+    let mut v = vec![
+        Point3::preset(QualityArg::Draft, "draft"),
+        Point3::grid(126, 32),
+        Point3::grid(126, 64),
+        Point3::grid(606, 32),
+        Point3::grid(606, 64),
+        Point3::preset(QualityArg::Auto, "auto"),
+    ];
+    if grid == GridArg::Full {
+        for (l, n) in [(246, 32), (246, 64), (126, 128), (1126, 64), (606, 128)] {
+            v.push(Point3::grid(l, n));
+        }
+        for k in [1, 2, 3, 5] {
+            let mut p = Point3::grid(606, 64);
+            p.label = format!("l=606 N=64 iterations={k}");
+            p.iterations = Some(IterationsArg::Fixed(k));
+            v.push(p);
+        }
+        for m in [4, 16] {
+            let mut p = Point3::grid(606, 64);
+            p.label = format!("l=606 N=64 tile={m}");
+            p.tile = Some(m);
+            v.push(p);
+        }
+        for k in [4, 16] {
+            let mut p = Point3::grid(126, 64);
+            p.label = format!("l=126 N=64 perturb={k}");
+            p.perturb = Some(k);
+            v.push(p);
+        }
+        v.push(Point3::preset(QualityArg::High, "high"));
+    }
+    v
+}
+
+/// The view both the renderer and the path tracer use.
+struct View {
+    camera: Option<usize>,
+    look: Option<(Vec3, Vec3, f32)>,
+}
+
+impl View {
+    fn for_light_field(&self, lf: &LightField) -> anyhow::Result<CameraView> {
+        if let Some((from, at, fov)) = self.look {
+            return Ok(CameraView::look_at(
+                lf.to_vlf.apply(from),
+                lf.to_vlf.apply(at),
+                fov.to_radians(),
+            ));
+        }
+        let i = self.camera.unwrap_or(0);
+        let cam = lf.cameras.get(i).with_context(|| {
+            format!(
+                "the scene has {} camera(s), no camera {i}: give --look-from/--look-at",
+                lf.cameras.len()
+            )
+        })?;
+        Ok(CameraView::from_gltf(cam, &lf.to_vlf))
+    }
+
+    fn for_path_tracer(
+        &self,
+        scene: &vlf_core::scene::Scene,
+        w: u32,
+        h: u32,
+    ) -> anyhow::Result<PinholeCamera> {
+        Ok(match self.look {
+            Some((from, at, fov)) => PinholeCamera::look_at(from, at, fov, w, h)?,
+            None => PinholeCamera::from_scene(scene, self.camera.unwrap_or(0), w, h)?,
+        })
+    }
+}
+
+struct Sweep<'a> {
+    args: &'a SweepArgs,
+    reference: Image,
+    rows: Vec<Row>,
+    scene_name: String,
+}
+
+impl Sweep<'_> {
+    fn record(&mut self, mut row: Row, image: &Image) -> anyhow::Result<()> {
+        let (report, _) = image::compare_images(
+            image,
+            &self.reference,
+            Path::new("render"),
+            &self.args.reference,
+        )?;
+        row.scene = self.scene_name.clone();
+        row.rel_mse = report.rel_mse;
+        row.flip = report.flip_mean;
+        row.mse = report.mse;
+        if let Some(dir) = &self.args.images {
+            std::fs::create_dir_all(dir)?;
+            let name = format!("{}-{}-{}.exr", row.method, row.label, row.spp)
+                .replace([' ', '=', '/'], "_");
+            image::write_exr(dir.join(name), image)?;
+        }
+        eprintln!(
+            "{:<22} {:<28} time {:>8.2} s  relMSE {:.3e}  FLIP {:.4}",
+            row.method, row.label, row.time_s, row.rel_mse, row.flip
+        );
+        self.rows.push(row);
+        let mut text = String::from(HEADER);
+        text.push('\n');
+        for r in &self.rows {
+            writeln!(text, "{}", r.csv()).expect("write to String");
+        }
+        write_bytes_atomic(&self.args.csv, text.as_bytes())
+            .with_context(|| format!("writing {}", self.args.csv.display()))
+    }
+}
+
+fn render(
+    ctx: &GpuContext,
+    lf: &LightField,
+    view: &View,
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> anyhow::Result<(Image, f64)> {
+    let cam = view.for_light_field(lf)?;
+    let mut renderer = Renderer::new(ctx, lf).context("uploading the light field")?;
+    // Warm-up (pipeline compilation, target allocation) outside the timed render.
+    renderer.render_still(ctx, &cam, w, h, 1)?;
+    let t = Instant::now();
+    let pixels = renderer.render_still(ctx, &cam, w, h, spp)?;
+    let s = t.elapsed().as_secs_f64();
+    Ok((
+        Image {
+            width: w,
+            height: h,
+            pixels,
+        },
+        s,
+    ))
+}
+
+/// `vlf-bake sweep`.
+pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyhow::Result<()> {
+    let reference = image::read_exr(&args.reference)?;
+    let (w, h) = (reference.width, reference.height);
+    let scene = vlf_core::scene::load(&args.scene)?;
+    let view = View {
+        camera: args.camera,
+        look: match (args.look_from, args.look_at) {
+            (Some(Point(f)), Some(Point(a))) => Some((f, a, args.fov)),
+            _ => None,
+        },
+    };
+    // Check the view before spending time on bakes.
+    view.for_path_tracer(&scene, w, h)
+        .context("the sweep's viewpoint")?;
+    let compute = open_device(device)?;
+    let render_ctx = match &compute {
+        Compute::Gpu(_) => None,
+        Compute::Cpu(_) => Some(
+            GpuContext::new(&Default::default())
+                .context("rendering the bakes needs a GPU adapter (lavapipe will do)")?,
+        ),
+    };
+    let ctx: &GpuContext = match (&compute, &render_ctx) {
+        (Compute::Gpu(c), _) => c,
+        (_, Some(c)) => c,
+        _ => unreachable!("one of the two is set"),
+    };
+    let budget = Budget::new(None, &compute, 1);
+    let scene_name = args
+        .scene
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let mut sweep = Sweep {
+        args,
+        reference,
+        rows: Vec::new(),
+        scene_name,
+    };
+    let sky = args.sky;
+    let tmp = tempdir_next_to(&args.csv)?;
+
+    // Path tracer: error against time, 1 … spp_max samples per pixel.
+    if args.spp_max > 0 {
+        let t = Instant::now();
+        let prep = PreparedScene::new(&scene);
+        let bvh_s = t.elapsed().as_secs_f64();
+        let camera = view.for_path_tracer(&scene, w, h)?;
+        let mut spp = 1;
+        while spp <= args.spp_max {
+            let settings = RenderSettings {
+                width: w,
+                height: h,
+                spp,
+                seed: args.seed,
+                sky: sky.map_or(Vec3::ZERO, |s| Vec3::from(s.0)),
+                threads: 0,
+            };
+            let t = Instant::now();
+            let img = pathtrace::render(&prep, &camera, &settings, &|_, _| {})?;
+            let s = t.elapsed().as_secs_f64() + bvh_s;
+            let row = Row {
+                method: "pathtrace",
+                label: format!("{spp} spp"),
+                spp,
+                time_s: s,
+                work_bytes: path_tracer_bytes(&prep) + u64::from(w) * u64::from(h) * 12,
+                device: format!(
+                    "CPU path tracer, {} threads",
+                    std::thread::available_parallelism().map_or(1, |n| n.get())
+                ),
+                ..Default::default()
+            };
+            sweep.record(row, &img)?;
+            spp *= 2;
+        }
+    }
+
+    // Virtual light field over the grid.
+    for (i, p) in plan(args.grid).iter().enumerate() {
+        let bake_args = p.args(sky);
+        let out = tmp.join(format!("bake-{i}.vlf"));
+        let report = match bake_scene(
+            &args.scene,
+            &out,
+            &bake_args,
+            &compute,
+            &budget,
+            &mut |_, _, _| {},
+        ) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("{}: skipped: {e:#}", p.label);
+                continue;
+            }
+        };
+        let lf = vlf_core::format::read(&out)?;
+        let (img, render_s) = render(ctx, &lf, &view, w, h, args.render_spp)?;
+        let _ = std::fs::remove_file(&out);
+        let pr = &report.params;
+        let row = Row {
+            method: "vlf",
+            label: p.label.clone(),
+            preset: p
+                .preset
+                .map_or(String::new(), |q| format!("{q:?}").to_lowercase()),
+            directions: report.directions as u32,
+            resolution: pr.resolution,
+            tile: pr.tile,
+            texel_scale: pr.texel_scale,
+            perturb: pr.perturb,
+            iterations_rule: match pr.iterations {
+                vlf_core::bake::Iterations::Fixed(k) => k.to_string(),
+                vlf_core::bake::Iterations::Converge { threshold, .. } => {
+                    format!("auto:{threshold:e}")
+                }
+            },
+            iterations: report.iterations,
+            time_s: report.total_s,
+            render_s,
+            work_bytes: report.memory.plan.host_bytes + report.memory.plan.device_bytes,
+            stored_bytes: report.output_bytes,
+            device: report.adapter.clone(),
+            ..Default::default()
+        };
+        sweep.record(row, &img)?;
+    }
+
+    let _ = std::fs::remove_dir_all(&tmp);
+    eprintln!("{} points → {}", sweep.rows.len(), args.csv.display());
+    Ok(())
+}
+
+/// A fresh scratch directory next to `csv` for the bakes' files.
+fn tempdir_next_to(csv: &Path) -> anyhow::Result<PathBuf> {
+    let dir = match csv.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let tmp = dir.join(format!(".sweep.tmp.{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    Ok(tmp)
+}
+
+/// Bytes of the path tracer's scene: BVH nodes (with their SIMD copy) and triangles.
+fn path_tracer_bytes(prep: &PreparedScene) -> u64 {
+    (std::mem::size_of_val(prep.bvh.nodes()) * 3
+        + std::mem::size_of_val(prep.bvh.triangles.as_slice())
+        + std::mem::size_of_val(prep.uvs.as_slice())) as u64
+}
