@@ -5,4 +5,5 @@ mod bake_gpu;
 mod gpu_smoke;
 mod pathtrace_gpu;
 mod render;
+mod render_encoding;
 mod stability_gpu;

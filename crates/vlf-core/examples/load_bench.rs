@@ -3,10 +3,14 @@
 //! (default 7) after a warm-up so that every read comes from the page cache:
 //!
 //! - `plain`: `std::fs::read` of the file (the floor for any reader),
-//! - `format::read` (header, checksums of every section, decoding to f32, validation),
+//! - `format::read` (header, checksums of every section, validation; the radiance stays in its
+//!   stored encoding, as `LightField::radiance` keeps it),
 //! - `describe` (header and section table only),
-//! - `f32 fill`: allocating and writing the in-memory `Vec<[f32; 4]>` radiance alone, on as
-//!   many threads as `format::read` uses (the part of the cost set by the in-memory type).
+//! - `to_f32`: decoding the loaded radiance to f32 RGBA (`Radiance::to_f32`, 16 bytes per
+//!   texel) — what the load cost before the radiance was kept encoded, and what any caller
+//!   that needs f32 pays on top of the load,
+//! - `rgba16f`: expanding f16 RGB to the RGBA halves the renderer uploads (`rgba16f_into`,
+//!   into a fresh buffer; RGB9E5 is uploaded as it is).
 //!
 //! `cargo run --release -p vlf-core --example load_bench [-- --mb 200 --runs 7 --encoding all]`
 //! (`--encoding rgb16f | rgb9e5 | all`). Prints a table, then the figures as CSV.
@@ -17,7 +21,7 @@ use std::time::Instant;
 use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle};
 use vlf_core::directions::DirectionSet;
 use vlf_core::format::{self, RadianceEncoding};
-use vlf_core::lightfield::{BakeStats, LightField};
+use vlf_core::lightfield::{BakeStats, LightField, Radiance};
 use vlf_core::scene::{SceneSummary, Similarity};
 
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
@@ -30,7 +34,7 @@ fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
 }
 
 /// A light field of `faces` faces of `side × side` texels per side, with HDR radiance.
-fn synthetic(faces: u32, side: u32) -> LightField {
+fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
     let mut fs = Vec::new();
     let mut tris = Vec::new();
     let mut base = 0u32;
@@ -63,7 +67,7 @@ fn synthetic(faces: u32, side: u32) -> LightField {
         }
     }
     let mut s = 0x2545_f491_4f6c_dd1du64;
-    let radiance = (0..base)
+    let radiance: Vec<[f32; 4]> = (0..base)
         .map(|_| {
             s ^= s << 13;
             s ^= s >> 7;
@@ -102,7 +106,7 @@ fn synthetic(faces: u32, side: u32) -> LightField {
         cameras: vec![],
         triangles: tris,
         faces: fs,
-        radiance,
+        radiance: Radiance::from_f32(&radiance, enc).expect("finite radiance"),
         tiles: None,
         stats: BakeStats::default(),
     }
@@ -118,23 +122,6 @@ fn best<R>(runs: usize, mut f: impl FnMut() -> R) -> f64 {
     best
 }
 
-/// Allocates and fills `n` f32 RGBA texels on `threads` threads (what any reader producing
-/// the in-memory radiance must at least do).
-fn f32_fill(n: usize, threads: usize) -> usize {
-    let mut v = vec![[0f32; 4]; n];
-    let chunk = n.div_ceil(threads.max(1)).max(1);
-    std::thread::scope(|s| {
-        for (t, c) in v.chunks_mut(chunk).enumerate() {
-            s.spawn(move || {
-                for (i, x) in c.iter_mut().enumerate() {
-                    *x = [(t + i) as f32, 1.0, 2.0, 0.0];
-                }
-            });
-        }
-    });
-    v.len()
-}
-
 struct Row {
     encoding: &'static str,
     file_bytes: u64,
@@ -142,7 +129,8 @@ struct Row {
     plain: f64,
     read: f64,
     describe: f64,
-    fill: f64,
+    to_f32: f64,
+    rgba16f: Option<f64>,
 }
 
 fn main() {
@@ -163,7 +151,7 @@ fn main() {
         let side = 1024u32;
         let per_face = 2 * (side as u64) * (side as u64) * enc.bytes_per_texel() as u64;
         let faces = ((mb * 1e6) / per_face as f64).ceil().max(1.0) as u32;
-        let lf = synthetic(faces, side);
+        let lf = synthetic(faces, side, enc);
         let path = dir.join(format!("bench-{}.vlf", enc.name()));
         let t = Instant::now();
         let bytes = format::write_atomic_with(&path, &lf, enc).expect("write");
@@ -186,7 +174,16 @@ fn main() {
             format::read(&path).expect("format::read").radiance.len()
         });
         let describe = best(runs, || format::describe(&path).expect("describe").texels);
-        let fill = best(runs, || f32_fill(texels, threads));
+        let back = format::read(&path).expect("format::read");
+        let to_f32 = best(runs, || back.radiance.to_f32().len());
+        let rgba16f = (enc == RadianceEncoding::RgbF16).then(|| {
+            best(runs, || {
+                let mut out = vec![[0u16; 4]; texels];
+                back.radiance.rgba16f_into(&mut out);
+                out.len()
+            })
+        });
+        drop(back);
         std::fs::remove_file(&path).expect("remove");
         rows.push(Row {
             encoding: enc.name(),
@@ -195,14 +192,15 @@ fn main() {
             plain,
             read,
             describe,
-            fill,
+            to_f32,
+            rgba16f,
         });
     }
     let _ = std::fs::remove_dir(&dir);
     let gbps = |bytes: u64, s: f64| bytes as f64 / s / 1e9;
     println!("threads available: {threads}");
     println!(
-        "{:<8} {:>10} {:>11} {:>18} {:>18} {:>7} {:>11} {:>11}",
+        "{:<8} {:>10} {:>11} {:>18} {:>18} {:>7} {:>11} {:>11} {:>11}",
         "encoding",
         "file MB",
         "texels",
@@ -210,11 +208,13 @@ fn main() {
         "format::read",
         "ratio",
         "describe",
-        "f32 fill"
+        "to_f32",
+        "rgba16f"
     );
+    let ms = |s: Option<f64>| s.map_or("-".to_string(), |s| format!("{:.1} ms", s * 1e3));
     for r in &rows {
         println!(
-            "{:<8} {:>10.1} {:>11} {:>8.1} ms {:>4.2} GB/s {:>8.1} ms {:>4.2} GB/s {:>7.2} {:>8.3} ms {:>8.1} ms",
+            "{:<8} {:>10.1} {:>11} {:>8.1} ms {:>4.2} GB/s {:>8.1} ms {:>4.2} GB/s {:>7.2} {:>8.3} ms {:>11} {:>11}",
             r.encoding,
             r.file_bytes as f64 / 1e6,
             r.texels,
@@ -224,16 +224,17 @@ fn main() {
             gbps(r.file_bytes, r.read),
             r.read / r.plain,
             r.describe * 1e3,
-            r.fill * 1e3
+            ms(Some(r.to_f32)),
+            ms(r.rgba16f)
         );
     }
     println!();
     println!(
-        "encoding,file_bytes,texels,runs,threads,plain_read_s,plain_read_gb_per_s,format_read_s,format_read_gb_per_s,ratio,describe_s,f32_fill_s"
+        "encoding,file_bytes,texels,runs,threads,plain_read_s,plain_read_gb_per_s,format_read_s,format_read_gb_per_s,ratio,describe_s,to_f32_s,rgba16f_s"
     );
     for r in &rows {
         println!(
-            "{},{},{},{runs},{threads},{:.6},{:.3},{:.6},{:.3},{:.3},{:.6},{:.6}",
+            "{},{},{},{runs},{threads},{:.6},{:.3},{:.6},{:.3},{:.3},{:.6},{:.6},{}",
             r.encoding,
             r.file_bytes,
             r.texels,
@@ -243,7 +244,8 @@ fn main() {
             gbps(r.file_bytes, r.read),
             r.read / r.plain,
             r.describe,
-            r.fill
+            r.to_f32,
+            r.rgba16f.map_or(String::new(), |s| format!("{s:.6}"))
         );
     }
     if !Path::new(&dir).exists() {

@@ -12,7 +12,7 @@ use vlf_core::format::disk::{
     self, FileFace, FileHeader, FileTriangle, PREAMBLE_LEN, Preamble, SectionEntry,
 };
 use vlf_core::format::{self, FormatError, RadianceEncoding, hash};
-use vlf_core::lightfield::{BakeStats, LightField};
+use vlf_core::lightfield::{BakeStats, LightField, NonFiniteRadiance, Radiance};
 use vlf_core::scene::{Camera, SceneSummary, Similarity};
 
 // ----- fixtures -----------------------------------------------------------------------------
@@ -44,10 +44,34 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// A small synthetic light field: `faces` square-ish faces of `w × h` texels per side, two
-/// triangles each, HDR radiance 1e-4..1e2 with zeros, one clamped hot texel, two cameras.
-fn synthetic(faces: u32, w: u32, h: u32, seed: u64) -> LightField {
+/// The radiance values of [`synthetic`] (f32, before encoding): HDR 1e-4..1e2 with zeros and
+/// one clamped hot texel.
+fn synthetic_values(texels: u32, seed: u64) -> Vec<[f32; 4]> {
     let mut rng = Rng(seed | 1);
+    let mut radiance: Vec<[f32; 4]> = (0..texels)
+        .map(|t| {
+            if t % 17 == 0 {
+                [0.0; 4]
+            } else {
+                let l = rng.log_uniform(1e-4, 1e2);
+                [l * rng.unit(), l * rng.unit(), l, 0.0]
+            }
+        })
+        .collect();
+    if let Some(t) = radiance.get_mut(5) {
+        *t = [1e6, 3.0, 1e-9, 0.0]; // clamped and underflowing components
+    }
+    radiance
+}
+
+/// A small synthetic light field: `faces` square-ish faces of `w × h` texels per side, two
+/// triangles each, [`synthetic_values`] radiance in the default encoding, two cameras.
+fn synthetic(faces: u32, w: u32, h: u32, seed: u64) -> LightField {
+    synthetic_in(faces, w, h, seed, format::DEFAULT_ENCODING)
+}
+
+/// [`synthetic`] with the radiance encoded as `enc`.
+fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) -> LightField {
     let mut fs_ = Vec::new();
     let mut tris = Vec::new();
     let mut base = 0;
@@ -85,19 +109,7 @@ fn synthetic(faces: u32, w: u32, h: u32, seed: u64) -> LightField {
             _pad1: 0,
         });
     }
-    let mut radiance: Vec<[f32; 4]> = (0..base)
-        .map(|t| {
-            if t % 17 == 0 {
-                [0.0; 4]
-            } else {
-                let l = rng.log_uniform(1e-4, 1e2);
-                [l * rng.unit(), l * rng.unit(), l, 0.0]
-            }
-        })
-        .collect();
-    if let Some(t) = radiance.get_mut(5) {
-        *t = [1e6, 3.0, 1e-9, 0.0]; // clamped and underflowing components
-    }
+    let radiance = Radiance::from_f32(&synthetic_values(base, seed), enc).unwrap();
     let params = BakeParams {
         directions: 21,
         iterations: Iterations::Fixed(3),
@@ -171,18 +183,31 @@ fn small() -> LightField {
     synthetic(3, 20, 30, 7) // 3600 texels
 }
 
-/// What reading back a file of `lf` must give.
+fn small_in(enc: RadianceEncoding) -> LightField {
+    synthetic_in(3, 20, 30, 7, enc)
+}
+
+/// What reading back a file of `lf` written as `enc` must give: the radiance re-encoded when
+/// `lf` holds another encoding, else `lf` itself.
 fn expected(lf: &LightField, enc: RadianceEncoding) -> LightField {
     let mut e = lf.clone();
-    e.radiance = enc.quantize(&lf.radiance).unwrap();
+    e.radiance = lf.radiance.to_encoding(enc);
+    if let Some(t) = e.tiles.as_mut() {
+        t.radiance = t.radiance.to_encoding(enc);
+    }
     e
 }
 
 fn assert_bit_exact(a: &LightField, b: &LightField) {
     assert_eq!(a, b);
+    assert_eq!(a.radiance.encoding(), b.radiance.encoding());
+    assert!(
+        a.radiance.as_bytes() == b.radiance.as_bytes(),
+        "radiance differs bitwise"
+    );
     let bits =
         |l: &LightField| -> Vec<u32> { l.radiance.iter().flatten().map(|x| x.to_bits()).collect() };
-    assert!(bits(a) == bits(b), "radiance differs bitwise");
+    assert!(bits(a) == bits(b), "decoded radiance differs bitwise");
 }
 
 fn bytes_of(lf: &LightField, enc: RadianceEncoding) -> Vec<u8> {
@@ -240,23 +265,41 @@ fn file_names(dir: &Path) -> Vec<String> {
 #[test]
 fn round_trip_is_bit_exact_for_both_encodings() {
     let dir = scratch("round-trip");
-    let lf = small();
     for enc in RadianceEncoding::ALL {
+        // In memory as stored: the file holds these bytes, and reading gives them back.
+        let lf = small_in(enc);
         let path = dir.join(format!("{}.vlf", enc.name()));
         let n = format::write_atomic_with(&path, &lf, enc).unwrap();
         assert_eq!(n, fs::metadata(&path).unwrap().len());
         let back = format::read(&path).unwrap();
-        assert_bit_exact(&back, &expected(&lf, enc));
+        assert_bit_exact(&back, &lf);
         let mem = format::read_bytes(&fs::read(&path).unwrap(), &path).unwrap();
         assert_bit_exact(&mem, &back);
+        let file = fs::read(&path).unwrap();
+        assert_eq!(file, bytes_of(&lf, enc), "deterministic bytes");
+        let h = header_of(&file);
+        let s = h.sections.iter().find(|s| s.name == "radiance").unwrap();
         assert_eq!(
-            fs::read(&path).unwrap(),
-            bytes_of(&lf, enc),
-            "deterministic bytes"
+            &file[s.offset as usize..(s.offset + s.byte_len) as usize],
+            lf.radiance.as_bytes(),
+            "the section holds the in-memory bytes"
         );
-        // Writing what was read gives the same file (the quantisation is idempotent).
-        assert_eq!(bytes_of(&back, enc), bytes_of(&lf, enc));
+        // Writing what was read gives the same file.
+        assert_eq!(bytes_of(&back, enc), file);
+        // The stored values are the f32 values quantised by the encoding.
+        let want = enc.quantize(&synthetic_values(3600, 7)).unwrap();
+        assert_eq!(back.radiance.to_f32(), want);
+        for (i, v) in want.iter().enumerate() {
+            assert_eq!(back.radiance.get(i), [v[0], v[1], v[2]]);
+        }
+        // Written in the other encoding: re-encoded, and read back as such.
+        for other in RadianceEncoding::ALL {
+            let back = format::read_bytes(&bytes_of(&lf, other), &path).unwrap();
+            assert_eq!(back.radiance.encoding(), other);
+            assert_bit_exact(&back, &expected(&lf, other));
+        }
     }
+    let lf = small();
     // The default is half-float RGB.
     let path = dir.join("default.vlf");
     format::write_atomic(&path, &lf).unwrap();
@@ -274,20 +317,26 @@ fn round_trip_of_edge_cases() {
     let mut empty = small();
     empty.triangles.clear();
     empty.faces.clear();
-    empty.radiance.clear();
     empty.cameras.clear();
     empty.stats = BakeStats::default();
     for enc in RadianceEncoding::ALL {
+        empty.radiance = Radiance::new(enc);
         let back = format::read_bytes(&bytes_of(&empty, enc), Path::new("e.vlf")).unwrap();
         assert_bit_exact(&back, &empty);
     }
-    let big = synthetic(2, 512, 600, 3); // 1 228 800 texels: 4.9 / 7.4 MB encoded
     let dir = scratch("big");
     for enc in RadianceEncoding::ALL {
+        // 1 228 800 texels (odd blocks): 4.9 / 7.4 MB encoded, several threads.
+        let big = synthetic_in(2, 512, 600, 3, enc);
         let path = dir.join("big.vlf");
         format::write_atomic_with(&path, &big, enc).unwrap();
         let back = format::read(&path).unwrap();
-        assert_bit_exact(&back, &expected(&big, enc));
+        assert_bit_exact(&back, &big);
+        assert_eq!(
+            back.radiance.to_f32(),
+            enc.quantize(&synthetic_values(2 * 2 * 512 * 600, 3))
+                .unwrap()
+        );
         // A flipped bit in a late block is caught by the threaded reader.
         let mut f = fs::read(&path).unwrap();
         let n = f.len();
@@ -315,7 +364,12 @@ fn describe_reads_the_header_only() {
     assert_eq!(info.memory.radiance_file_bytes, 3600 * 6);
     assert_eq!(info.memory.radiance_f32_bytes, 3600 * 16);
     assert_eq!(info.memory.geometry_bytes, 6 * 48 + 3 * 80);
-    assert_eq!(info.memory.loaded_bytes, 3600 * 16 + 6 * 48 + 3 * 80);
+    // The radiance stays in its stored encoding once loaded.
+    assert_eq!(info.memory.loaded_bytes, 3600 * 6 + 6 * 48 + 3 * 80);
+    assert_eq!(
+        format::read(&path).unwrap().radiance_bytes() as u64,
+        info.memory.radiance_file_bytes
+    );
     let text = info.to_string();
     for needle in [
         "d.vlf",
@@ -629,6 +683,12 @@ fn rejects_inconsistent_content() {
     );
     let g = patch_section(&f, "radiance", |b| b[6 * 9 + 1] |= 0x80);
     assert_msg(&g, "radiance texel 9: not a stored rgb16f value");
+    // Also in a late block of a large section, checked on another thread.
+    let big = synthetic(2, 512, 600, 3);
+    let g = patch_section(&bytes_of(&big, RadianceEncoding::RgbF16), "radiance", |b| {
+        b[6 * 1_200_001 + 5] = 0xFC; // -inf
+    });
+    assert_msg(&g, "radiance texel 1200001: not a stored rgb16f value");
     // Header content.
     let g = disk::rewrite_header(&f, |h| h.params.resolution = 0).unwrap();
     assert_msg(
@@ -660,20 +720,33 @@ fn writer_rejects_unstorable_fields_before_touching_the_disk() {
     let dir = scratch("unstorable");
     let path = dir.join("out.vlf");
     fs::write(&path, b"old").unwrap();
-    let mut lf = small();
-    lf.radiance[42][1] = f32::NAN;
-    let e = format::write_atomic(&path, &lf).unwrap_err().to_string();
-    assert!(
-        e.starts_with("radiance texel 42: [") && e.contains("NaN"),
-        "{e}"
-    );
-    let tail = format!(
-        "is not finite (NaN and infinity cannot be stored): {}",
-        path.display()
-    );
-    assert!(e.ends_with(&tail), "{e}");
-    lf.radiance[42][1] = f32::NEG_INFINITY;
-    assert!(format::write_atomic_with(&path, &lf, RadianceEncoding::RgbF16).is_err());
+    // NaN and infinity cannot even enter a light field: encoding names the value.
+    let mut values = synthetic_values(3600, 7);
+    for enc in RadianceEncoding::ALL {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            values[42][1] = bad;
+            let e = Radiance::from_f32(&values, enc).unwrap_err();
+            assert_eq!(e.index, 42);
+            assert_eq!(e.value[0].to_bits(), values[42][0].to_bits());
+            let msg = e.to_string();
+            assert!(
+                msg.starts_with("value 42: [")
+                    && msg.ends_with("is not finite (NaN and infinity cannot be stored)"),
+                "{msg}"
+            );
+        }
+    }
+    // The first one, also from a later block on another thread.
+    let mut big = synthetic_values(1_300_000, 3);
+    big[1_299_999][2] = f32::NAN;
+    big[1_000_000][0] = f32::INFINITY;
+    assert!(matches!(
+        Radiance::from_f32(&big, RadianceEncoding::RgbF16),
+        Err(NonFiniteRadiance {
+            index: 1_000_000,
+            ..
+        })
+    ));
     let mut lf = small();
     lf.faces[1].texel_base = 3590;
     let e = format::write_atomic(&path, &lf).unwrap_err().to_string();
@@ -792,7 +865,8 @@ fn tiny() -> LightField {
     lf.cameras.clear();
     lf.scene.source = "t".into();
     lf.stats = BakeStats::default();
-    lf.radiance = vec![[1.0, 0.5, 0.25, 0.0], [0.0; 4]];
+    lf.radiance =
+        Radiance::from_f32(&[[1.0, 0.5, 0.25, 0.0], [0.0; 4]], format::DEFAULT_ENCODING).unwrap();
     lf
 }
 
@@ -963,15 +1037,19 @@ fn datasets() -> Vec<(&'static str, Vec<[f32; 4]>)> {
         ("independent channels", independent),
         ("Cornell-like", cornell),
     ];
-    // Opt-in: a real CPU bake (126 directions, 64 × 64 rays, 3 iterations) of a scene.
+    // Opt-in: a real CPU bake (126 directions, 64 × 64 rays, 3 iterations) of a scene, in
+    // f32 as propagated and dilated (what `bake::assemble` encodes).
     if let Some(scene) = std::env::var_os("VLF_ENCODING_SCENE") {
         let scene = vlf_core::scene::load(Path::new(&scene)).unwrap();
         let params = BakeParams {
             directions: 126,
             ..BakeParams::paper()
         };
-        let lf = vlf_core::bake::bake_cpu(&scene, &params).unwrap();
-        sets.push(("baked scene", lf.radiance));
+        let prep = vlf_core::bake::BakeScene::new(&scene, &params).unwrap();
+        let set = DirectionSet::at_least(params.directions).unwrap();
+        let mut radiance = vlf_core::bake::reference::propagate(&prep, &set, &params).radiance;
+        vlf_core::bake::dilate(&prep, &mut radiance);
+        sets.push(("baked scene", radiance));
     }
     sets
 }
@@ -1039,14 +1117,16 @@ fn mirror_tiles_round_trip_and_reject_corruption() {
         tiles.radiance.iter().any(|v| v[0] > 0.0),
         "tiles carry light"
     );
+    // The bake keeps atlas and tiles in the default encoding; both sections store them as is.
     let enc = format::DEFAULT_ENCODING;
+    assert_eq!(tiles.radiance.encoding(), enc);
     let bytes = bytes_of(&lf, enc);
     let back = format::read_bytes(&bytes, Path::new("mem.vlf")).unwrap();
-    let mut want = expected(&lf, enc);
-    if let Some(t) = want.tiles.as_mut() {
-        t.radiance = enc.quantize(&t.radiance).unwrap();
-    }
-    assert_eq!(back, want);
+    assert_bit_exact(&back, &lf);
+    let other = RadianceEncoding::Rgb9e5;
+    let back = format::read_bytes(&bytes_of(&lf, other), Path::new("mem.vlf")).unwrap();
+    assert_bit_exact(&back, &expected(&lf, other));
+    assert_eq!(back.tiles.as_ref().unwrap().radiance.encoding(), other);
 
     // Break the tile index (a tile id beyond the grid), with a valid checksum.
     let mut h = header_of(&bytes);

@@ -21,7 +21,7 @@ use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle};
 use vlf_core::directions::DirectionSet;
 use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEntry};
 use vlf_core::format::{self, RadianceEncoding, hash};
-use vlf_core::lightfield::{BakeStats, LightField};
+use vlf_core::lightfield::{BakeStats, LightField, Radiance};
 use vlf_core::scene::{Camera, SceneSummary, Similarity};
 
 /// xorshift64* — deterministic, dependency-free.
@@ -106,7 +106,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
             });
         }
     }
-    let radiance = (0..base)
+    let radiance: Vec<[f32; 4]> = (0..base)
         .map(|_| {
             let l = (rng.unit() * 14.0 - 9.0).exp();
             [l * rng.unit(), l, l * rng.unit(), 0.0]
@@ -150,7 +150,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
         cameras: if cameras { vec![camera] } else { vec![] },
         triangles: tris,
         faces: fs,
-        radiance,
+        radiance: Radiance::from_f32(&radiance, format::DEFAULT_ENCODING).unwrap(),
         tiles: None,
         stats: BakeStats {
             iterations: 2,

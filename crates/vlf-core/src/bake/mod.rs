@@ -15,7 +15,8 @@ pub use params::{BakeParams, Iterations, ParamsError, Quality};
 pub use prep::{BakeFace, BakeScene, BakeTriangle};
 
 use crate::directions::DirectionSet;
-use crate::lightfield::{BakeStats, LightField, MirrorTiles};
+use crate::format::DEFAULT_ENCODING;
+use crate::lightfield::{BakeStats, LightField, MirrorTiles, Radiance};
 use crate::scene::Scene;
 
 /// Errors of a bake.
@@ -25,11 +26,22 @@ pub enum BakeError {
     Params(#[from] ParamsError),
     #[error("invalid direction count: {0}")]
     Directions(#[from] crate::directions::DirectionError),
+    /// The propagated radiance holds a value no encoding can store (a bug or an overflow).
+    #[error("{element}: {value:?} is not finite (NaN and infinity cannot be stored)")]
+    NonFinite { element: String, value: [f32; 3] },
 }
 
 /// Assembles a [`LightField`] from a scene, its prepared form and the propagated radiance
 /// (shared by the CPU and GPU paths). Uncovered texels are dilated so bilinear filtering at
-/// polygon borders reads covered neighbours instead of black.
+/// polygon borders reads covered neighbours instead of black. The radiance (atlas and mirror
+/// tiles) is then encoded once, in the file's default encoding
+/// ([`crate::format::DEFAULT_ENCODING`]): that is how the light field is kept in memory,
+/// written and rendered.
+///
+/// No encoding stores NaN or infinity. Should the propagation produce one (a bug or an
+/// overflow), this logs a warning naming the first such value and stores those components as
+/// the writer's encoders do (NaN and −∞ as 0, +∞ as the largest value); [`try_assemble`]
+/// fails instead.
 pub fn assemble(
     scene: &Scene,
     prep: &BakeScene,
@@ -38,9 +50,45 @@ pub fn assemble(
     propagated: reference::Propagated,
     stats: BakeStats,
 ) -> LightField {
+    match assemble_impl(scene, prep, params, directions, propagated, stats, false) {
+        Ok(lf) => lf,
+        Err(e) => unreachable!("lenient encoding cannot fail: {e}"),
+    }
+}
+
+/// [`assemble`], failing with [`BakeError::NonFinite`] (naming the first value) if a
+/// propagated value is NaN or infinite.
+pub fn try_assemble(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    directions: DirectionSet,
+    propagated: reference::Propagated,
+    stats: BakeStats,
+) -> Result<LightField, BakeError> {
+    assemble_impl(scene, prep, params, directions, propagated, stats, true)
+}
+
+fn assemble_impl(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    directions: DirectionSet,
+    propagated: reference::Propagated,
+    stats: BakeStats,
+    strict: bool,
+) -> Result<LightField, BakeError> {
     let mut radiance = propagated.radiance;
     dilate(prep, &mut radiance);
-    LightField {
+    let radiance = encode_radiance(radiance, "radiance texel", strict)?;
+    let tiles = match propagated.tiles {
+        Some((index, values)) => Some(MirrorTiles {
+            index,
+            radiance: encode_radiance(values, "tile radiance value", strict)?,
+        }),
+        None => None,
+    };
+    Ok(LightField {
         params: params.clone(),
         directions,
         to_vlf: scene.to_vlf,
@@ -49,11 +97,45 @@ pub fn assemble(
         triangles: prep.triangles.clone(),
         faces: prep.faces.clone(),
         radiance,
-        tiles: propagated
-            .tiles
-            .map(|(index, radiance)| MirrorTiles { index, radiance }),
+        tiles,
         stats,
+    })
+}
+
+/// Encodes `values` in the default encoding; non-finite values fail (`strict`) or are stored
+/// as the encoders store them, with a warning.
+fn encode_radiance(
+    mut values: Vec<[f32; 4]>,
+    what: &str,
+    strict: bool,
+) -> Result<Radiance, BakeError> {
+    let e = match Radiance::from_f32(&values, DEFAULT_ENCODING) {
+        Ok(r) => return Ok(r),
+        Err(e) => e,
+    };
+    if strict {
+        return Err(BakeError::NonFinite {
+            element: format!("{what} {}", e.index),
+            value: e.value,
+        });
     }
+    let mut count = 0usize;
+    for c in values.iter_mut().flat_map(|v| &mut v[..3]) {
+        if !c.is_finite() {
+            *c = if *c == f32::INFINITY { f32::MAX } else { 0.0 };
+            count += 1;
+        }
+    }
+    log::warn!(
+        "{what} {}: {:?} is not finite; {count} non-finite components stored as 0 (NaN, -inf) \
+         or the largest value (+inf)",
+        e.index,
+        e.value
+    );
+    Radiance::from_f32(&values, DEFAULT_ENCODING).map_err(|e| BakeError::NonFinite {
+        element: format!("{what} {}", e.index),
+        value: e.value,
+    })
 }
 
 /// Bakes on the CPU with the reference propagator.
@@ -69,7 +151,7 @@ pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeEr
         ..Default::default()
     };
     stats.set_energy(&out.energy);
-    Ok(assemble(scene, &prep, params, directions, out, stats))
+    try_assemble(scene, &prep, params, directions, out, stats)
 }
 
 /// Fills every uncovered texel (area 0) of each chart side with the mean of its covered

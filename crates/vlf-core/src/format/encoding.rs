@@ -65,6 +65,46 @@ impl RadianceEncoding {
         }
     }
 
+    /// `u32` words that hold `texels` stored texels: `bytes_per_texel × texels` bytes in file
+    /// byte order, zero-padded to a whole word.
+    pub fn words_for(self, texels: usize) -> usize {
+        (texels * self.bytes_per_texel()).div_ceil(4)
+    }
+
+    /// Decodes stored texel `i` of `words` (file byte order; see [`words_for`](Self::words_for)).
+    /// Exact: every stored value is an f32. Panics if `i` is beyond `words`.
+    #[inline]
+    pub fn texel(self, words: &[u32], i: usize) -> [f32; 3] {
+        match self {
+            RadianceEncoding::Rgb9e5 => rgb9e5_decode(u32::from_le(words[i])),
+            RadianceEncoding::RgbF16 => {
+                let h = &bytemuck::cast_slice::<u32, u16>(words)[3 * i..3 * i + 3];
+                [h[0], h[1], h[2]].map(|x| f16_decode_unsigned(u16::from_le(x)))
+            }
+        }
+    }
+
+    /// Checks that the first `texels` texels of `words` are values a writer produces. Errors
+    /// with the first texel that is not (a negative, infinite or NaN half float; every RGB9E5
+    /// word is a valid value).
+    pub fn check_stored(self, words: &[u32], texels: usize) -> Result<(), usize> {
+        match self {
+            RadianceEncoding::Rgb9e5 => Ok(()),
+            RadianceEncoding::RgbF16 => {
+                let halves = &bytemuck::cast_slice::<u32, u16>(words)[..3 * texels];
+                // Stored halves are below 0x7C00 (finite, no sign bit): one max finds any other.
+                let max = halves.iter().fold(0u16, |m, &h| m.max(u16::from_le(h)));
+                if max < 0x7C00 {
+                    return Ok(());
+                }
+                Err(halves
+                    .chunks_exact(3)
+                    .position(|h| h.iter().any(|&x| !f16_is_stored(u16::from_le(x))))
+                    .unwrap_or(0))
+            }
+        }
+    }
+
     /// Encodes `texels` (rgb; alpha ignored) into `out` (`bytes_per_texel` × `texels.len()`
     /// bytes, little-endian). Returns the index of the first texel with a NaN or infinite
     /// component, in which case `out` is unspecified.

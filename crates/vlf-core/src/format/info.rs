@@ -47,8 +47,8 @@ pub struct SectionInfo {
     pub element_bytes: u32,
     /// Bytes in the file.
     pub file_bytes: u64,
-    /// Bytes once loaded in memory (f32 radiance as RGBA), `None` for sections unknown to
-    /// this build.
+    /// Bytes once loaded in memory (radiance stays in its stored encoding, so the same as in
+    /// the file), `None` for sections unknown to this build.
     pub memory_bytes: Option<u64>,
     pub checksum: String,
 }
@@ -56,11 +56,12 @@ pub struct SectionInfo {
 /// Sizes of the light field on disk and in memory (cf. the paper's Table 1).
 #[derive(Clone, Debug, Serialize)]
 pub struct MemoryInfo {
-    /// Radiance as stored (the file's encoding): also what a renderer sampling the encoded
-    /// texture directly (e.g. wgpu `Rgb9e5Ufloat`) keeps on the GPU.
+    /// Radiance as stored (the file's encoding): also its size in the in-memory
+    /// [`crate::lightfield::LightField`] ([`crate::lightfield::Radiance`]). The renderer keeps
+    /// RGB9E5 as it is on the GPU (`Rgb9e5Ufloat`) and f16 RGB as `Rgba16Float` (8 bytes).
     pub radiance_file_bytes: u64,
-    /// Radiance as f32 RGBA, the in-memory [`crate::lightfield::LightField`] form (and one
-    /// radiance map of a propagation, which keeps several such maps per texel).
+    /// Radiance as f32 RGBA: what decoding it all would take (and one radiance map of a
+    /// propagation, which keeps several such maps per texel).
     pub radiance_f32_bytes: u64,
     /// Triangles and faces (identical on disk and in memory).
     pub geometry_bytes: u64,
@@ -76,12 +77,11 @@ impl FileInfo {
         enc: RadianceEncoding,
     ) -> Self {
         let memory_bytes = |s: &disk::SectionEntry| match s.name.as_str() {
-            disk::SECTION_RADIANCE | disk::SECTION_TILE_RADIANCE => {
-                Some(s.count.saturating_mul(16))
-            }
-            disk::SECTION_TRIANGLES | disk::SECTION_FACES | disk::SECTION_TILE_INDEX => {
-                Some(s.byte_len)
-            }
+            disk::SECTION_RADIANCE
+            | disk::SECTION_TILE_RADIANCE
+            | disk::SECTION_TRIANGLES
+            | disk::SECTION_FACES
+            | disk::SECTION_TILE_INDEX => Some(s.byte_len),
             _ => None,
         };
         let sections: Vec<SectionInfo> = h

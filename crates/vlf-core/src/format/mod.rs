@@ -20,8 +20,10 @@ pub mod disk;
 pub mod encoding;
 pub mod hash;
 mod info;
+pub(crate) mod parallel;
 mod tiles;
 
+use std::borrow::Cow;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -32,7 +34,7 @@ use bytemuck::Pod;
 use crate::bake::prep::FACE_MIXED;
 use crate::bake::{BakeFace, BakeParams, BakeTriangle};
 use crate::directions::DirectionSet;
-use crate::lightfield::{LightField, MirrorTiles};
+use crate::lightfield::{LightField, MirrorTiles, Radiance};
 use disk::{
     FileCamera, FileDirections, FileFace, FileHeader, FileParams, FileSceneSummary, FileStats,
     FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble, SECTION_ALIGN,
@@ -355,15 +357,16 @@ fn sync_dir(_dir: &Path) -> io::Result<()> {
     Ok(())
 }
 
-/// An encoded file, ready to be written.
-struct Encoded {
+/// An encoded file, ready to be written: radiance stored in the requested encoding is
+/// borrowed from the light field, not copied.
+struct Encoded<'a> {
     head: Vec<u8>,
     /// (offset, bytes) in file order.
-    sections: Vec<(u64, Vec<u8>)>,
+    sections: Vec<(u64, Cow<'a, [u8]>)>,
     len: u64,
 }
 
-impl Encoded {
+impl Encoded<'_> {
     fn write_to(&self, w: &mut impl Write) -> io::Result<()> {
         w.write_all(&self.head)?;
         let mut pos = self.head.len() as u64;
@@ -386,7 +389,20 @@ fn pod_section<T: Pod>(mut items: Vec<T>) -> Vec<u8> {
     bytemuck::cast_slice::<T, u8>(&items).to_vec()
 }
 
-fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded, FormatError> {
+/// The stored bytes of `r` in `enc`: borrowed when `r` is stored so, else re-encoded.
+fn radiance_bytes(r: &Radiance, enc: RadianceEncoding) -> Cow<'_, [u8]> {
+    if r.encoding() == enc {
+        Cow::Borrowed(r.as_bytes())
+    } else {
+        Cow::Owned(r.to_encoding(enc).as_bytes().to_vec())
+    }
+}
+
+fn encode<'a>(
+    lf: &'a LightField,
+    enc: RadianceEncoding,
+    path: &Path,
+) -> Result<Encoded<'a>, FormatError> {
     let content = |(element, reason)| FormatError::Content {
         element,
         reason,
@@ -400,32 +416,15 @@ fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded
     let faces: Vec<FileFace> = lf.faces.iter().map(FileFace::from).collect();
     let tri_bytes = pod_section(tris);
     let face_bytes = pod_section(faces);
-    let (rad_bytes, rad_hashes) = encode_radiance(&lf.radiance, enc).map_err(|i| {
-        content((
-            format!("radiance texel {i}"),
-            format!(
-                "{:?} is not finite (NaN and infinity cannot be stored)",
-                &lf.radiance[i][..3]
-            ),
-        ))
-    })?;
+    // Radiance is finite by construction (`Radiance` cannot hold NaN or infinity).
+    let rad_bytes = radiance_bytes(&lf.radiance, enc);
 
     let tiles = match &lf.tiles {
         Some(t) => {
             let words = tiles::pack(&t.index);
             tiles::validate(&t.index, lf.faces.len(), t.radiance.len())
                 .map_err(|r| content(("tile index".into(), r)))?;
-            let idx_bytes = pod_section(words);
-            let (vals, hashes) = encode_radiance(&t.radiance, enc).map_err(|i| {
-                content((
-                    format!("tile radiance value {i}"),
-                    format!(
-                        "{:?} is not finite (NaN and infinity cannot be stored)",
-                        &t.radiance[i][..3]
-                    ),
-                ))
-            })?;
-            Some((idx_bytes, vals, hashes))
+            Some((pod_section(words), radiance_bytes(&t.radiance, enc)))
         }
         None => None,
     };
@@ -440,7 +439,7 @@ fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded
             elem_size: elem as u32,
             checksum,
         };
-    let sections = vec![
+    let mut sections = vec![
         entry(
             disk::SECTION_TRIANGLES,
             disk::KIND_TRIANGLE,
@@ -463,12 +462,11 @@ fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded
             lf.radiance.len(),
             enc.bytes_per_texel(),
             &rad_bytes,
-            hash::combine(&rad_hashes, rad_bytes.len() as u64),
+            parallel::section_checksum(&rad_bytes),
         ),
     ];
-    let mut sections = sections;
-    let mut bodies = vec![tri_bytes, face_bytes, rad_bytes];
-    if let Some((idx_bytes, vals, hashes)) = tiles {
+    let mut bodies = vec![Cow::Owned(tri_bytes), Cow::Owned(face_bytes), rad_bytes];
+    if let Some((idx_bytes, vals)) = tiles {
         sections.push(entry(
             disk::SECTION_TILE_INDEX,
             disk::KIND_TILE_INDEX,
@@ -483,9 +481,9 @@ fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded
             vals.len() / enc.bytes_per_texel(),
             enc.bytes_per_texel(),
             &vals,
-            hash::combine(&hashes, vals.len() as u64),
+            parallel::section_checksum(&vals),
         ));
-        bodies.push(idx_bytes);
+        bodies.push(Cow::Owned(idx_bytes));
         bodies.push(vals);
     }
     let mut header = FileHeader {
@@ -549,77 +547,6 @@ fn encode(lf: &LightField, enc: RadianceEncoding, path: &Path) -> Result<Encoded
         sections: offsets.into_iter().zip(bodies).collect(),
         len: file_len,
     })
-}
-
-/// Sections at least this large are encoded / decoded on several threads.
-const PARALLEL_MIN_BYTES: usize = 4 << 20;
-
-fn threads_for(bytes: usize) -> usize {
-    if bytes < PARALLEL_MIN_BYTES {
-        1
-    } else {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-            .min(8)
-    }
-}
-
-/// Runs `work(first_block, chunk)` over `items` split into per-thread runs of whole blocks of
-/// `per_block` items, on as many threads as pay off for `bytes`; results in order.
-fn parallel_blocks<T: Send, R: Send>(
-    items: &mut [T],
-    per_block: usize,
-    bytes: usize,
-    work: impl Fn(usize, &mut [T]) -> R + Sync,
-) -> Vec<R> {
-    let blocks = items.len().div_ceil(per_block).max(1);
-    let threads = threads_for(bytes).min(blocks);
-    let blocks_per_thread = blocks.div_ceil(threads);
-    let chunk = blocks_per_thread * per_block;
-    if threads <= 1 {
-        return vec![work(0, items)];
-    }
-    std::thread::scope(|s| {
-        let work = &work;
-        let handles: Vec<_> = items
-            .chunks_mut(chunk)
-            .enumerate()
-            .map(|(t, c)| s.spawn(move || work(t * blocks_per_thread, c)))
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    })
-}
-
-/// Encodes the radiance; returns the bytes and their block hashes, or the first non-finite
-/// texel.
-fn encode_radiance(
-    radiance: &[[f32; 4]],
-    enc: RadianceEncoding,
-) -> Result<(Vec<u8>, Vec<u64>), usize> {
-    let bpt = enc.bytes_per_texel();
-    let per_block = hash::BLOCK / bpt;
-    let mut out = vec![0u8; radiance.len() * bpt];
-    let len = out.len();
-    let results = parallel_blocks(&mut out, hash::BLOCK, len, |first, bytes| {
-        let mut hashes = Vec::new();
-        for (j, b) in bytes.chunks_mut(hash::BLOCK).enumerate() {
-            let block = first + j;
-            let t0 = block * per_block;
-            enc.encode(&radiance[t0..t0 + b.len() / bpt], b)
-                .map_err(|i| t0 + i)?;
-            hashes.push(hash::block_hash(b, block));
-        }
-        Ok::<_, usize>(hashes)
-    });
-    let mut hashes = Vec::new();
-    for r in results {
-        hashes.extend(r?);
-    }
-    Ok((out, hashes))
 }
 
 // ----- reading ------------------------------------------------------------------------------
@@ -1040,33 +967,33 @@ fn read_pod<T: Pod>(
     Ok(items)
 }
 
-/// Reads, verifies and decodes the radiance section block by block (blocks stay in cache;
-/// threads take contiguous runs of blocks).
+/// Reads the radiance section `s` into memory as stored: one aligned buffer, filled with
+/// positioned reads of whole checksum blocks (each thread takes a contiguous run of blocks and
+/// reads straight into its part of the buffer), every block hashed and checked for values no
+/// writer produces while it is in cache. Nothing is decoded.
 fn read_radiance(
     src: &dyn Source,
     s: &SectionEntry,
     enc: RadianceEncoding,
     path: &Path,
-) -> Result<Vec<[f32; 4]>, FormatError> {
+) -> Result<Radiance, FormatError> {
     let bpt = enc.bytes_per_texel();
-    let per_block = hash::BLOCK / bpt;
     // check_sections: count × bpt = byte_len ≤ the real file size.
-    let mut out = vec![[0f32; 4]; elements(s, path)?];
-    let results = parallel_blocks(&mut out, per_block, s.byte_len as usize, |first, texels| {
-        // One aligned block buffer per thread: the block is read (or copied) into it, hashed
-        // and decoded while it is in cache.
-        let mut words = vec![0u32; hash::BLOCK / 4];
+    let len = elements(s, path)?;
+    let byte_len = len * bpt;
+    let mut words = vec![0u32; enc.words_for(len)];
+    let results = parallel::blocks_mut(&mut words, hash::BLOCK / 4, byte_len, |first, w| {
         let mut hashes = Vec::new();
         let mut bad = None;
-        for (j, o) in texels.chunks_mut(per_block).enumerate() {
+        for (j, w) in w.chunks_mut(hash::BLOCK / 4).enumerate() {
             let block = first + j;
-            let offset = s.offset + (block * hash::BLOCK) as u64;
-            let len = o.len() * bpt;
-            let bytes = &mut bytemuck::cast_slice_mut::<u32, u8>(&mut words)[..len];
-            src.read_at(offset, bytes)?;
+            let start = block * hash::BLOCK;
+            let n = (byte_len - start).min(hash::BLOCK);
+            let bytes = &mut bytemuck::cast_slice_mut::<u32, u8>(w)[..n];
+            src.read_at(s.offset + start as u64, bytes)?;
             hashes.push(hash::block_hash(bytes, block));
-            if let Err(i) = enc.decode_words(&words, o) {
-                bad = bad.or(Some(block * per_block + i));
+            if let Err(i) = enc.check_stored(w, n / bpt) {
+                bad = bad.or(Some(start / bpt + i));
             }
         }
         Ok::<_, io::Error>((hashes, bad))
@@ -1091,8 +1018,13 @@ fn read_radiance(
         });
     }
     if let Some(i) = bad {
+        let element = if s.name == disk::SECTION_RADIANCE {
+            format!("radiance texel {i}")
+        } else {
+            format!("{} value {i}", s.name)
+        };
         return Err(FormatError::Content {
-            element: format!("radiance texel {i}"),
+            element,
             reason: format!(
                 "not a stored {} value (negative, infinite or NaN)",
                 enc.name()
@@ -1100,7 +1032,7 @@ fn read_radiance(
             path: path.to_owned(),
         });
     }
-    Ok(out)
+    Ok(Radiance::from_checked_words(enc, len, words))
 }
 
 // ----- validation (shared by writer and reader) ---------------------------------------------

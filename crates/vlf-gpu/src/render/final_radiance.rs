@@ -26,8 +26,9 @@
 
 use std::collections::HashMap;
 
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 use vlf_core::bake::BakeFace;
+use vlf_core::lightfield::Radiance;
 
 use super::targets::{RADIANCE_FORMAT, Targets};
 use super::upload::GpuLightField;
@@ -237,8 +238,9 @@ impl FinalRadiancePass {
 }
 
 /// CPU counterpart of the shader's atlas lookup: the radiance of `face` at plane point `p` on
-/// `side` (0 = front), bilinear in chart coordinates with clamp-to-chart, in f32 like the GPU.
-pub fn diffuse_radiance(face: &BakeFace, radiance: &[[f32; 4]], side: u32, p: Vec3) -> Vec3 {
+/// `side` (0 = front), bilinear in chart coordinates with clamp-to-chart, in f32 like the GPU
+/// (texels decoded exactly, as the GPU's texel fetch decodes them).
+pub fn diffuse_radiance(face: &BakeFace, radiance: &Radiance, side: u32, p: Vec3) -> Vec3 {
     let d = p - Vec3::from(face.origin);
     let x = d.dot(Vec3::from(face.u)) / face.texel_size - 0.5;
     let y = d.dot(Vec3::from(face.v)) / face.texel_size - 0.5;
@@ -250,7 +252,7 @@ pub fn diffuse_radiance(face: &BakeFace, radiance: &[[f32; 4]], side: u32, p: Ve
     let j0 = (y0 as i64).clamp(0, h - 1);
     let j1 = (y0 as i64 + 1).clamp(0, h - 1);
     let base = face.texel_base as i64 + i64::from(side) * w * h;
-    let at = |i: i64, j: i64| Vec4::from(radiance[(base + j * w + i) as usize]).truncate();
+    let at = |i: i64, j: i64| Vec3::from(radiance.get((base + j * w + i) as usize));
     let top = at(i0, j0).lerp(at(i1, j0), fx);
     let bottom = at(i0, j1).lerp(at(i1, j1), fx);
     top.lerp(bottom, fy)

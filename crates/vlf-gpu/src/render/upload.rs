@@ -11,7 +11,12 @@
 //! Both textures are linear arrays wrapped into rows: element `i` is texel
 //! `(i % width, i / width)`.
 //!
-//! * Atlas (`Rgba32Float`, [`ATLAS_WIDTH`] wide): texel `i` = `LightField::radiance[i]`.
+//! * Atlas ([`ATLAS_WIDTH`] wide): texel `i` = `LightField::radiance.get(i)`, uploaded in its
+//!   stored encoding with no decoding on the CPU ([`radiance_format`]): RGB9E5 as it is, into
+//!   an `Rgb9e5Ufloat` texture (4 bytes per texel, the file's bits); f16 RGB as an
+//!   `Rgba16Float` texture (8 bytes per texel: the file's halves copied next to a zero alpha,
+//!   as wgpu has no 3-channel half format). Texel fetches decode them exactly, so the shader
+//!   reads the same f32 values as `Radiance::get` and is the same for both.
 //! * Face records (`Rgba32Uint`, [`FACE_RECORD_TEXELS`] texels per face, [`FACES_PER_ROW`] faces
 //!   per row; floats stored as their bits):
 //!   0: normal.xyz, kind · 1: origin.xyz, texel_size · 2: u.xyz, width · 3: v.xyz, height ·
@@ -21,11 +26,12 @@
 //!     channel `k % 4` of texel `k / 4`): a header `[l, m, n, face_slot_off, index_start_off,
 //!     tile_ids_off, coverage_off, words_per_slot]`, then the packed arrays of
 //!     `vlf_core::bake::tiles::TileIndex` at those offsets;
-//!   - tile values (`Rgba32Float`, [`ATLAS_WIDTH`] wide): `MirrorTiles::radiance`;
+//!   - tile values ([`ATLAS_WIDTH`] wide, in the atlas's texture format): `MirrorTiles::radiance`
+//!     (1-texel dummy without tiles);
 //!   - frames (`Rgba32Float`, 2 texels per fixed direction: u, v of its twisted PSF frame).
 
 use vlf_core::bake::{BakeFace, BakeTriangle};
-use vlf_core::lightfield::LightField;
+use vlf_core::lightfield::{LightField, Radiance, RadianceEncoding};
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
@@ -57,8 +63,16 @@ pub struct GpuLightField {
     pub sphere_triangle_count: u32,
     /// Bytes of all buffers and textures above.
     pub bytes: u64,
-    /// Bytes of the radiance atlas alone.
+    /// Bytes of the radiance textures (atlas and tile values).
     pub radiance_bytes: u64,
+}
+
+/// The texture format the radiance of `encoding` is uploaded as (see the module docs).
+pub fn radiance_format(encoding: RadianceEncoding) -> wgpu::TextureFormat {
+    match encoding {
+        RadianceEncoding::Rgb9e5 => wgpu::TextureFormat::Rgb9e5Ufloat,
+        RadianceEncoding::RgbF16 => wgpu::TextureFormat::Rgba16Float,
+    }
 }
 
 /// The face record texels of `f` (see the module docs).
@@ -132,15 +146,15 @@ impl GpuLightField {
             bytemuck::cast_slice(&records),
             &mut bytes,
         )?;
-        let atlas_view = wrapped_texture(
+        let mut radiance_bytes = 0;
+        let atlas_view = radiance_texture(
             device,
             queue,
             "Renderer::radiance_atlas",
-            wgpu::TextureFormat::Rgba32Float,
-            ATLAS_WIDTH,
-            bytemuck::cast_slice(&lf.radiance),
-            &mut bytes,
+            &lf.radiance,
+            &mut radiance_bytes,
         )?;
+        let no_tiles = Radiance::new(lf.radiance.encoding());
         let (words, values, frames) = match &lf.tiles {
             Some(t) => {
                 let ix = &t.index;
@@ -169,9 +183,9 @@ impl GpuLightField {
                     .iter()
                     .flat_map(|f| [f.u.extend(0.0).to_array(), f.v.extend(0.0).to_array()])
                     .collect();
-                (w, t.radiance.clone(), frames)
+                (w, &t.radiance, frames)
             }
-            None => (vec![0u32; 4], Vec::new(), Vec::new()),
+            None => (vec![0u32; 4], &no_tiles, Vec::new()),
         };
         let tile_words_view = wrapped_texture(
             device,
@@ -182,15 +196,14 @@ impl GpuLightField {
             bytemuck::cast_slice(&words),
             &mut bytes,
         )?;
-        let tile_values_view = wrapped_texture(
+        let tile_values_view = radiance_texture(
             device,
             queue,
             "Renderer::tile_values",
-            wgpu::TextureFormat::Rgba32Float,
-            ATLAS_WIDTH,
-            bytemuck::cast_slice(&values),
-            &mut bytes,
+            values,
+            &mut radiance_bytes,
         )?;
+        bytes += radiance_bytes;
         let frames_view = wrapped_texture(
             device,
             queue,
@@ -213,56 +226,129 @@ impl GpuLightField {
             sphere_triangles,
             sphere_triangle_count: tris.len() as u32,
             bytes,
-            radiance_bytes: lf.radiance_bytes() as u64,
+            radiance_bytes,
         })
     }
 }
 
-/// A 16-byte-texel 2D texture holding `data` wrapped into rows of `width` elements (narrower
-/// when there are fewer elements; at least one texel).
+/// `radiance` as an [`ATLAS_WIDTH`]-wide texture in [`radiance_format`] (see the module docs):
+/// value `i` at texel `(i % ATLAS_WIDTH, i / ATLAS_WIDTH)`, at least one texel. Adds its bytes
+/// to `bytes`.
+pub fn radiance_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    radiance: &Radiance,
+    bytes: &mut u64,
+) -> Result<wgpu::TextureView, RenderError> {
+    let format = radiance_format(radiance.encoding());
+    match radiance.encoding() {
+        // The stored words are the texture's texels.
+        RadianceEncoding::Rgb9e5 => wrapped_texture(
+            device,
+            queue,
+            label,
+            format,
+            ATLAS_WIDTH,
+            radiance.as_bytes(),
+            bytes,
+        ),
+        RadianceEncoding::RgbF16 => {
+            let mut texels = vec![[0u16; 4]; radiance.len()];
+            radiance.rgba16f_into(&mut texels);
+            wrapped_texture(
+                device,
+                queue,
+                label,
+                format,
+                ATLAS_WIDTH,
+                bytemuck::cast_slice(&texels),
+                bytes,
+            )
+        }
+    }
+}
+
+/// A 2D texture of `format` holding `data` (whole texels in the texture's byte layout)
+/// wrapped into rows of `width` texels (narrower when there are fewer; at least one texel,
+/// the rest of the last row zero); adds its bytes to `bytes`.
 fn wrapped_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     label: &str,
     format: wgpu::TextureFormat,
     width: u32,
-    data: &[[u32; 4]],
+    data: &[u8],
     bytes: &mut u64,
 ) -> Result<wgpu::TextureView, RenderError> {
-    let n = data.len().max(1) as u64;
+    let texel = format
+        .block_copy_size(None)
+        .expect("an uncompressed colour format") as usize;
+    debug_assert_eq!(data.len() % texel, 0);
+    let n = (data.len() / texel).max(1) as u64;
     let width = (n.min(u64::from(width))) as u32;
     let rows = n.div_ceil(u64::from(width));
     let max = device.limits().max_texture_dimension_2d;
     if rows > u64::from(max) {
         return Err(RenderError::TooLarge {
             what: label.to_owned(),
-            bytes: n * 16,
-            limit: u64::from(width) * u64::from(max) * 16,
+            bytes: n * texel as u64,
+            limit: u64::from(width) * u64::from(max) * texel as u64,
         });
     }
     let rows = rows as u32;
-    let mut texels = data.to_vec();
-    texels.resize((width * rows) as usize, [0; 4]);
-    *bytes += texels.len() as u64 * 16;
-    let texture = device.create_texture_with_data(
-        queue,
-        &wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
+    let row_bytes = width as usize * texel;
+    *bytes += u64::from(rows) * row_bytes as u64;
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height: rows,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    // Whole rows straight from `data`; the last, partial row padded with zeros (no copy of
+    // the bulk).
+    let full = data.len() / row_bytes;
+    let write = |first_row: usize, rows: usize, data: &[u8]| {
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: first_row as u32,
+                    z: 0,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            data,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row_bytes as u32),
+                rows_per_image: Some(rows as u32),
+            },
+            wgpu::Extent3d {
                 width,
-                height: rows,
+                height: rows as u32,
                 depth_or_array_layers: 1,
             },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        },
-        wgpu::util::TextureDataOrder::LayerMajor,
-        bytemuck::cast_slice(&texels),
-    );
+        );
+    };
+    if full > 0 {
+        write(0, full, &data[..full * row_bytes]);
+    }
+    if full < rows as usize {
+        let mut last = data[full * row_bytes..].to_vec();
+        last.resize(row_bytes, 0);
+        write(full, 1, &last);
+    }
     Ok(texture.create_view(&wgpu::TextureViewDescriptor {
         label: Some(&format!("{label}_view")),
         ..Default::default()
