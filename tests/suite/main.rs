@@ -4,6 +4,7 @@ mod accuracy;
 mod bake_gpu;
 mod gpu_smoke;
 mod pathtrace_gpu;
+mod radiosity_gpu;
 mod render;
 mod render_encoding;
 mod stability_gpu;

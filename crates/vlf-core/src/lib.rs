@@ -5,4 +5,5 @@ pub mod image;
 pub mod lightfield;
 pub mod pathtrace;
 pub mod psf;
+pub mod radiosity;
 pub mod scene;

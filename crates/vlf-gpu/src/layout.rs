@@ -226,6 +226,32 @@ pub struct RtPath {
     pub pdf: f32,
 }
 
+/// Globals of the GPU radiosity solver (`shaders/radiosity_jacobi.wgsl`, group 0 binding 0).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RadiosityGlobals {
+    /// Rows of the form-factor matrix.
+    pub patches: u32,
+    /// Workgroups along x of the 2-D dispatch.
+    pub groups_x: u32,
+    /// Workgroups dispatched in all (entries of the partial-maxima buffer).
+    pub partial_count: u32,
+    pub max_iterations: u32,
+    /// Residual below which the solver stops (0: never).
+    pub threshold: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// Per-patch terms of the radiosity system (`radiosity_jacobi.wgsl`): source S and albedo ρ.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PatchTerm {
+    pub source: [f32; 4],
+    pub albedo: [f32; 4],
+}
+
 /// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
 pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
     use vlf_core::bake::{BakeFace, BakeTriangle};
@@ -274,6 +300,11 @@ pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
         reg.push(entry::<RtGlobals>("RtGlobals", "raytrace_path.wgsl"));
         reg.push(entry::<RtPath>("RtPath", "raytrace_path.wgsl"));
     }
+    reg.push(entry::<RadiosityGlobals>(
+        "RadiosityGlobals",
+        "radiosity_jacobi.wgsl",
+    ));
+    reg.push(entry::<PatchTerm>("PatchTerm", "radiosity_jacobi.wgsl"));
     reg
 }
 

@@ -34,6 +34,7 @@ pub const RENDER_FINAL_RADIANCE: Shader = shader!("render_final_radiance.wgsl");
 pub const RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
 pub const RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
 pub const RAYTRACE_PATH: Shader = shader!("raytrace_path.wgsl");
+pub const RADIOSITY_JACOBI: Shader = shader!("radiosity_jacobi.wgsl");
 
 /// Every shader of the project. The test `registry_matches_folder` keeps this list complete.
 pub const ALL: &[Shader] = &[
@@ -50,6 +51,7 @@ pub const ALL: &[Shader] = &[
     RENDER_DISPLAY,
     RAYTRACE_ENGINE,
     RAYTRACE_PATH,
+    RADIOSITY_JACOBI,
 ];
 
 impl Shader {
