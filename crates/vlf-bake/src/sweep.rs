@@ -481,8 +481,100 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
         sweep.record(row, &img)?;
     }
 
+    if !args.no_radiosity {
+        radiosity(&mut sweep, &scene, ctx, &view, (w, h), sky)?;
+    }
     let _ = std::fs::remove_dir_all(&tmp);
     eprintln!("{} points → {}", sweep.rows.len(), args.csv.display());
+    Ok(())
+}
+
+/// The matrix radiosity baseline (diffuse scenes): patches = the atlas texels at ray grids of
+/// 32², 64² and 128² (texel = 2×2 rays, as the bakes), form factors from 64 … 16,384 rays per
+/// patch,
+/// Gauss-Seidel on the CPU; one Jacobi solve on the GPU at 64² and 1,024 rays.
+fn radiosity(
+    sweep: &mut Sweep,
+    scene: &vlf_core::scene::Scene,
+    ctx: &GpuContext,
+    view: &View,
+    (w, h): (u32, u32),
+    sky: Option<Rgb>,
+) -> anyhow::Result<()> {
+    use vlf_core::radiosity::{self, RadiosityError, RadiositySettings};
+    let base = vlf_core::bake::auto::choose(scene, vlf_core::bake::Quality::Auto).params;
+    let mut points: Vec<(u32, u32, bool)> = Vec::new();
+    for n in [32, 64] {
+        for rays in [64, 256, 1024, 4096] {
+            points.push((n, rays, false));
+        }
+    }
+    points.extend([(64, 16384, false), (128, 1024, false), (128, 4096, false)]);
+    points.push((64, 1024, true));
+    for (n, rays, gpu) in points {
+        let mut params = base.clone();
+        params.resolution = n;
+        params.tile = (1..=params.tile.min(n))
+            .rev()
+            .find(|t| n.is_multiple_of(*t))
+            .unwrap_or(1);
+        params.sky = sky.map_or(Vec3::ZERO, |s| Vec3::from(s.0));
+        let settings = RadiositySettings {
+            rays_per_patch: rays,
+            threshold: 1e-4,
+            ..Default::default()
+        };
+        let result = if gpu {
+            vlf_gpu::radiosity::bake(ctx, scene, &params, &settings).map_err(anyhow::Error::from)
+        } else {
+            radiosity::bake(scene, &params, &settings).map_err(anyhow::Error::from)
+        };
+        let (lf, report) = match result {
+            Ok(r) => r,
+            Err(e) => {
+                if e.chain().any(|c| {
+                    c.downcast_ref::<RadiosityError>()
+                        .is_some_and(|e| matches!(e, RadiosityError::NonDiffuse { .. }))
+                }) {
+                    eprintln!("radiosity: not run ({e:#})");
+                    return Ok(());
+                }
+                return Err(e.context("radiosity baseline"));
+            }
+        };
+        let stored = vlf_core::format::to_bytes(
+            &lf,
+            vlf_core::format::DEFAULT_ENCODING,
+            Path::new("radiosity"),
+        )?
+        .len() as u64;
+        let (img, render_s) = render(ctx, &lf, view, w, h, sweep.args.render_spp)?;
+        let row = Row {
+            method: if gpu {
+                "radiosity_jacobi_gpu"
+            } else {
+                "radiosity_gs"
+            },
+            label: format!("N={n} rays={rays}"),
+            resolution: n,
+            texel_scale: params.texel_scale,
+            tile: params.tile,
+            iterations_rule: format!("residual:{:e}", settings.threshold),
+            iterations: report.iterations,
+            rays_per_patch: rays,
+            time_s: report.form_factor_seconds + report.solve_seconds,
+            render_s,
+            work_bytes: report.memory_bytes as u64,
+            stored_bytes: stored,
+            device: if gpu {
+                format!("form factors on the CPU, Jacobi on {}", ctx.summary)
+            } else {
+                "CPU".into()
+            },
+            ..Default::default()
+        };
+        sweep.record(row, &img)?;
+    }
     Ok(())
 }
 
