@@ -107,7 +107,16 @@ fn gpu_texel_fetch_decodes_both_encodings_exactly() {
         .map(|h| [h[0], h[h.len() / 2], h[h.len() - 1], 0.0])
         .collect();
     let f16 = Radiance::from_f32(&values, RadianceEncoding::RgbF16).unwrap();
-    for r in [rgb9e5, f16] {
+    // Large: uploaded in several bands (8 MiB each), the last with a partial row.
+    let many: Vec<[f32; 4]> = (0..1_300_001)
+        .map(|i| values[(i * 7) % values.len()])
+        .collect();
+    let large = Radiance::from_f32(&many, RadianceEncoding::RgbF16).unwrap();
+    let le: Vec<u8> = (0..2_200_003u32)
+        .flat_map(|i| words[(i as usize * 5) % words.len()].to_le_bytes())
+        .collect();
+    let large9e5 = Radiance::from_stored(RadianceEncoding::Rgb9e5, &le).unwrap();
+    for r in [rgb9e5, f16, large, large9e5] {
         let got = fetch_on_gpu(&r);
         assert!(r.len() > ATLAS_WIDTH as usize && r.len() % ATLAS_WIDTH as usize != 0);
         for (i, g) in got.iter().enumerate() {

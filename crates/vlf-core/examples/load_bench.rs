@@ -179,7 +179,7 @@ fn main() {
         let rgba16f = (enc == RadianceEncoding::RgbF16).then(|| {
             best(runs, || {
                 let mut out = vec![[0u16; 4]; texels];
-                back.radiance.rgba16f_into(&mut out);
+                back.radiance.rgba16f_into(0, &mut out);
                 out.len()
             })
         });

@@ -283,17 +283,18 @@ impl Radiance {
         self.len * self.encoding.bytes_per_texel()
     }
 
-    /// For [`RadianceEncoding::RgbF16`]: copies the halves of every value into RGBA texels of
-    /// `out` (alpha 0, halves in little-endian byte order as in the file, so the bytes of `out`
-    /// are an `Rgba16Float` texture's), on several threads when large; `out[len()..]` is left
-    /// as it is. A copy of bits, exact. Panics for another encoding or if `out` is too short.
-    pub fn rgba16f_into(&self, out: &mut [[u16; 4]]) {
+    /// For [`RadianceEncoding::RgbF16`]: copies the halves of values `first..first +
+    /// out.len()` into RGBA texels (alpha 0, halves in little-endian byte order as in the
+    /// file, so the bytes of `out` are an `Rgba16Float` texture's), on several threads when
+    /// large. A copy of bits, exact. Panics for another encoding or a range beyond `len()`.
+    pub fn rgba16f_into(&self, first: usize, out: &mut [[u16; 4]]) {
         assert_eq!(self.encoding, RadianceEncoding::RgbF16);
-        let halves = &bytemuck::cast_slice::<u32, u16>(&self.words)[..3 * self.len];
+        assert!(first + out.len() <= self.len, "values beyond the radiance");
+        let halves = &bytemuck::cast_slice::<u32, u16>(&self.words)[3 * first..];
         let per_block = BLOCK / 6;
-        let out = &mut out[..self.len];
-        parallel::blocks_mut(out, per_block, self.len * 8, |first, o| {
-            let h = &halves[3 * first * per_block..];
+        let bytes = out.len() * 8;
+        parallel::blocks_mut(out, per_block, bytes, |block, o| {
+            let h = &halves[3 * block * per_block..];
             for (o, h) in o.iter_mut().zip(h.chunks_exact(3)) {
                 *o = [h[0], h[1], h[2], 0];
             }
@@ -418,7 +419,7 @@ mod tests {
         let v = values(2 * BLOCK / 6 + 3);
         let r = Radiance::from_f32(&v, RadianceEncoding::RgbF16).unwrap();
         let mut out = vec![[7u16; 4]; r.len() + 2];
-        r.rgba16f_into(&mut out);
+        r.rgba16f_into(0, &mut out[..r.len()]);
         let halves = bytemuck::cast_slice::<u8, u16>(r.as_bytes());
         for (i, o) in out[..r.len()].iter().enumerate() {
             assert_eq!(o[..3], halves[3 * i..3 * i + 3], "texel {i}");
@@ -427,6 +428,10 @@ mod tests {
             assert_eq!([f[0], f[1], f[2]], r.get(i));
         }
         assert_eq!(out[r.len()..], [[7; 4]; 2]);
+        // A range.
+        let mut part = vec![[7u16; 4]; 5];
+        r.rgba16f_into(BLOCK / 6 - 2, &mut part);
+        assert_eq!(part, out[BLOCK / 6 - 2..BLOCK / 6 + 3]);
     }
 
     #[test]

@@ -253,19 +253,17 @@ pub fn radiance_texture(
             radiance.as_bytes(),
             bytes,
         ),
-        RadianceEncoding::RgbF16 => {
-            let mut texels = vec![[0u16; 4]; radiance.len()];
-            radiance.rgba16f_into(&mut texels);
-            wrapped_texture(
-                device,
-                queue,
-                label,
-                format,
-                ATLAS_WIDTH,
-                bytemuck::cast_slice(&texels),
-                bytes,
-            )
-        }
+        // The halves next to a zero alpha, copied band by band into the upload buffer.
+        RadianceEncoding::RgbF16 => banded_texture(
+            device,
+            queue,
+            label,
+            format,
+            ATLAS_WIDTH,
+            radiance.len(),
+            bytes,
+            |first, out| radiance.rgba16f_into(first, bytemuck::cast_slice_mut(out)),
+        ),
     }
 }
 
@@ -281,11 +279,47 @@ fn wrapped_texture(
     data: &[u8],
     bytes: &mut u64,
 ) -> Result<wgpu::TextureView, RenderError> {
-    let texel = format
-        .block_copy_size(None)
-        .expect("an uncompressed colour format") as usize;
+    let texel = texel_bytes(format);
     debug_assert_eq!(data.len() % texel, 0);
-    let n = (data.len() / texel).max(1) as u64;
+    banded_texture(
+        device,
+        queue,
+        label,
+        format,
+        width,
+        data.len() / texel,
+        bytes,
+        |first, out| out.copy_from_slice(&data[first * texel..first * texel + out.len()]),
+    )
+}
+
+fn texel_bytes(format: wgpu::TextureFormat) -> usize {
+    format
+        .block_copy_size(None)
+        .expect("an uncompressed colour format") as usize
+}
+
+/// Bytes of texels uploaded per band (and submitted before the next band is filled, so that
+/// an upload never holds more than this in extra host memory, however large the texture).
+const UPLOAD_BAND_BYTES: usize = 8 << 20;
+
+/// A 2D texture of `format` holding `count` texels wrapped into rows of `width` (narrower
+/// when there are fewer; at least one texel, the rest of the last row zero), filled in bands
+/// of rows: `fill(first, out)` writes texels `first..` into `out` (whole texels, 8-byte
+/// aligned so that it casts to any texel type). Adds the texture's bytes to `bytes`.
+#[allow(clippy::too_many_arguments)]
+fn banded_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    format: wgpu::TextureFormat,
+    width: u32,
+    count: usize,
+    bytes: &mut u64,
+    fill: impl Fn(usize, &mut [u8]),
+) -> Result<wgpu::TextureView, RenderError> {
+    let texel = texel_bytes(format);
+    let n = count.max(1) as u64;
     let width = (n.min(u64::from(width))) as u32;
     let rows = n.div_ceil(u64::from(width));
     let max = device.limits().max_texture_dimension_2d;
@@ -296,14 +330,14 @@ fn wrapped_texture(
             limit: u64::from(width) * u64::from(max) * texel as u64,
         });
     }
-    let rows = rows as u32;
+    let rows = rows as usize;
     let row_bytes = width as usize * texel;
-    *bytes += u64::from(rows) * row_bytes as u64;
+    *bytes += (rows * row_bytes) as u64;
     let texture = device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
         size: wgpu::Extent3d {
             width,
-            height: rows,
+            height: rows as u32,
             depth_or_array_layers: 1,
         },
         mip_level_count: 1,
@@ -313,10 +347,18 @@ fn wrapped_texture(
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
-    // Whole rows straight from `data`; the last, partial row padded with zeros (no copy of
-    // the bulk).
-    let full = data.len() / row_bytes;
-    let write = |first_row: usize, rows: usize, data: &[u8]| {
+    let band_rows = (UPLOAD_BAND_BYTES / row_bytes).clamp(1, rows);
+    // u64s: an 8-byte aligned buffer, reused for every band.
+    let mut band = vec![0u64; (band_rows * row_bytes).div_ceil(8)];
+    let band = &mut bytemuck::cast_slice_mut::<u64, u8>(&mut band)[..band_rows * row_bytes];
+    for first_row in (0..rows).step_by(band_rows) {
+        let band_rows = band_rows.min(rows - first_row);
+        let first = first_row * width as usize;
+        let filled = count.saturating_sub(first).min(band_rows * width as usize) * texel;
+        let b = &mut band[..band_rows * row_bytes];
+        fill(first, &mut b[..filled]);
+        // The rest of the last row.
+        b[filled..].fill(0);
         queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -328,26 +370,22 @@ fn wrapped_texture(
                 },
                 aspect: wgpu::TextureAspect::All,
             },
-            data,
+            b,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
                 bytes_per_row: Some(row_bytes as u32),
-                rows_per_image: Some(rows as u32),
+                rows_per_image: Some(band_rows as u32),
             },
             wgpu::Extent3d {
                 width,
-                height: rows as u32,
+                height: band_rows as u32,
                 depth_or_array_layers: 1,
             },
         );
-    };
-    if full > 0 {
-        write(0, full, &data[..full * row_bytes]);
-    }
-    if full < rows as usize {
-        let mut last = data[full * row_bytes..].to_vec();
-        last.resize(row_bytes, 0);
-        write(full, 1, &last);
+        if band_rows < rows {
+            // Hand this band's staging copy to the GPU before filling the next one.
+            queue.submit(None);
+        }
     }
     Ok(texture.create_view(&wgpu::TextureViewDescriptor {
         label: Some(&format!("{label}_view")),
