@@ -61,11 +61,14 @@ const FACES_PER_ROW: u32 = 1024u;
 // Face records: 5 texels per face (normal, kind | origin, texel_size | u, width | v, height |
 // texel_base), floats as bits.
 @group(1) @binding(4) var face_records: texture_2d<u32>;
-// Total outgoing radiance per atlas texel (rgb; a unused), both sides of every face.
+// Total outgoing radiance per atlas texel (rgb; a unused), both sides of every face, in the
+// light field's stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel
+// fetch decodes it exactly, so the shader is the same for both.
 @group(1) @binding(5) var atlas: texture_2d<f32>;
 // Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
 @group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
-// Mirror tiles (see upload.rs): index words (4 per texel), values, direction frames (u, v).
+// Mirror tiles (see upload.rs): index words (4 per texel), values (in the atlas's format),
+// direction frames (u, v).
 @group(1) @binding(7) var tile_words: texture_2d<u32>;
 @group(1) @binding(8) var tile_values: texture_2d<f32>;
 @group(1) @binding(9) var frames: texture_2d<f32>;

@@ -282,7 +282,8 @@ impl Renderer {
         self.light_field.bytes
     }
 
-    /// Bytes of the radiance atlas on the GPU.
+    /// Bytes of the radiance textures on the GPU (atlas and mirror tile values, in the stored
+    /// encoding: 4 bytes per value for RGB9E5, 8 for f16; see [`upload`]).
     pub fn radiance_bytes(&self) -> u64 {
         self.light_field.radiance_bytes
     }
