@@ -11,8 +11,9 @@
 //! (`reference::bin_triangles`) and `k_max` the longest tile bin over all directions (an upper
 //! bound on the faces one ray crosses):
 //!
-//! * both paths, host: a process baseline (8 MiB), the loaded scene (world triangles, decoded
-//!   textures at 16 B per texel), and 10 % on top of every host item for the allocator;
+//! * both paths, host: a process baseline (8 MiB; 96 MiB more for a software GPU driver), the
+//!   loaded scene (world triangles, decoded textures at 16 B per texel), and 10 % on top of
+//!   every host item for the allocator;
 //! * CPU path (host memory; one direction at a time):
 //!   `52 X` prepared texel arrays (area, centre, albedo, emission) + `3 × 16 X` radiance (unshot,
 //!   next, total) + `36 X` accumulators and face ids + `3 × 16 V` tile values + tile index +
@@ -26,8 +27,19 @@
 //!   every direction, `16 (X + V)` unshot, `16 V` next tiles, `32 X` accumulators,
 //!   `N² (16 + 4)` escape and count buffers, `40 N² min(k_max, 256)` crossing lists (8 B entry +
 //!   32 B interface), tile index, frames and reflect items; plus host memory for the CPU-side
-//!   copies (prepared arrays, radiance, tiles, bins, read-backs, the encoded file). On a software
-//!   adapter (lavapipe) the GPU buffers live in system RAM and count against host memory too.
+//!   copies (prepared arrays, radiance, tiles, reflect jobs and items, one direction's bins, the
+//!   upload staging, read-backs, the encoded file).
+//!   On a software adapter (lavapipe) the GPU buffers live in system RAM and count against host
+//!   memory too.
+//!
+//! The buffers with something for every transport direction (tile bins `4 B_d`, tile starts
+//! `4 ((N/m)² + 1)`, reflect items) are split into chunks of whole directions
+//! (`vlf_gpu::bake::chunks`, the same greedy split the propagator makes), each at most
+//! min(128 MiB, binding limit): their total counts against memory, their largest chunk against
+//! the binding limit. Only a single direction larger than the limit makes such a buffer too
+//! large (then `--resolution` is halved, or the bake refused, as for any other buffer). The
+//! host bins one direction at a time and writes it into its chunk (staging flushed every
+//! 32 MiB), so it never holds the bins of every direction.
 //!
 //! The plan is an upper bound: the crossing lists assume that every ray meets every triangle
 //! whose bounding box (GPU: whose tile bin) it passes through.
@@ -44,6 +56,7 @@ use vlf_core::bake::{BakeParams, BakeScene};
 use vlf_core::directions::DirectionSet;
 use vlf_core::psf::PsfGrid;
 use vlf_core::scene::Scene;
+use vlf_gpu::bake::{ChunkBytes, Chunker};
 
 use crate::Compute;
 
@@ -55,6 +68,9 @@ pub const CROSSING_BYTES: u64 = 40;
 const RAM_SHARE: (u64, u64) = (3, 4);
 /// Resident memory of the process before any scene (measured: 5–7 MiB for `vlf-bake`).
 const BASELINE_BYTES: u64 = 8 << 20;
+/// Resident memory of a software adapter's driver (Mesa, LLVM, the compiled shaders): measured
+/// 93 MiB peak for a GPU bake of the Cornell box on lavapipe against 8 MiB on the CPU path.
+const SOFTWARE_DRIVER_BYTES: u64 = 96 << 20;
 /// Cap on crossings per ray on the GPU (`vlf_gpu::bake::MAX_CROSSINGS`).
 const GPU_MAX_CROSSINGS: u32 = vlf_gpu::bake::MAX_CROSSINGS;
 
@@ -209,6 +225,40 @@ pub struct PlanItem {
     pub bytes_each: u64,
     pub copies: u64,
     pub bytes: u64,
+    /// A GPU item split into several buffers (chunks of whole directions); `bytes` is their sum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split: Option<Split>,
+}
+
+/// How a [`PlanItem`] is split into GPU buffers.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Split {
+    /// One buffer's name in messages (`Bake::bin_tris[k]`).
+    pub part: &'static str,
+    /// Number of buffers.
+    pub buffers: u64,
+    /// Bytes of the largest buffer.
+    pub largest: u64,
+    /// Cap on one buffer (exceeded only by a single direction larger than it).
+    pub cap: u64,
+}
+
+impl PlanItem {
+    /// The largest single buffer of this item: itself, or its largest part when split.
+    fn largest_buffer(&self) -> PlanItem {
+        match &self.split {
+            None => self.clone(),
+            Some(s) => PlanItem {
+                name: s.part,
+                place: self.place,
+                count: s.largest / self.bytes_each.max(1),
+                bytes_each: self.bytes_each,
+                copies: 1,
+                bytes: s.largest,
+                split: None,
+            },
+        }
+    }
 }
 
 /// The memory a bake will need (see the module documentation for the formulas).
@@ -238,7 +288,7 @@ pub struct MemoryPlan {
     pub fixed_bytes: u64,
     /// GPU buffers (0 on the CPU path).
     pub device_bytes: u64,
-    /// The largest single GPU buffer (GPU path).
+    /// The largest single GPU buffer (GPU path; of a split item, its largest part).
     pub largest_buffer: Option<PlanItem>,
     pub budget: Budget,
     /// Each limit the plan exceeds (empty when it fits).
@@ -334,7 +384,7 @@ impl fmt::Display for MemoryPlan {
             self.k_max
         )?;
         for i in &self.items {
-            writeln!(
+            write!(
                 f,
                 "  {:<4} {:<44} {:>12} × {:>3} B × {} = {}",
                 i.place,
@@ -344,6 +394,17 @@ impl fmt::Display for MemoryPlan {
                 i.copies,
                 human(i.bytes)
             )?;
+            if let Some(s) = &i.split {
+                write!(
+                    f,
+                    " in {} buffer{} of ≤ {} (largest {})",
+                    s.buffers,
+                    if s.buffers == 1 { "" } else { "s" },
+                    human(s.cap),
+                    human(s.largest)
+                )?;
+            }
+            writeln!(f)?;
         }
         write!(f, "  host {}", human(self.host_bytes))?;
         if self.path == "gpu" {
@@ -500,7 +561,7 @@ pub fn plan_and_prepare(
         let tp = Instant::now();
         let prep = BakeScene::new(scene, &params).context("preparing the scene")?;
         prep_s += tp.elapsed().as_secs_f64();
-        let mut plan = plan_prepared(scene, &prep, &set, &params, gpu, budget);
+        let mut plan = plan_prepared(scene, &prep, &set, &params, gpu, software, budget);
         plan.check(software);
         if !plan.fits()
             && let Some(lower) = halve(&params)
@@ -603,16 +664,39 @@ fn item(name: &'static str, place: &'static str, count: u64, each: u64, copies: 
         bytes_each: each,
         copies,
         bytes: count * each * copies,
+        split: None,
     }
 }
 
-/// The plan for `scene` prepared as `prep` (not yet checked against the budget).
+/// A GPU item split into the chunks of `chunker`; `largest` and `total` in bytes.
+fn split_item(
+    name: &'static str,
+    part: &'static str,
+    each: u64,
+    total: u64,
+    largest: u64,
+    chunker: &Chunker,
+) -> PlanItem {
+    PlanItem {
+        split: Some(Split {
+            part,
+            buffers: chunker.chunks().len() as u64,
+            largest,
+            cap: chunker.cap(),
+        }),
+        ..item(name, "gpu", total / each, each, 1)
+    }
+}
+
+/// The plan for `scene` prepared as `prep` (not yet checked against the budget); `software`:
+/// the GPU path on a software adapter (whose driver lives in the process).
 pub fn plan_prepared(
     scene: &Scene,
     prep: &BakeScene,
     set: &DirectionSet,
     params: &BakeParams,
     gpu: bool,
+    software: bool,
     budget: &Budget,
 ) -> MemoryPlan {
     let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
@@ -624,22 +708,57 @@ pub fn plan_prepared(
     let faces = prep.faces.len() as u64;
     let x = prep.texel_count() as u64;
 
-    // Bins of every transport direction, as both propagators build them; and the cells each
-    // triangle's projected bounding box covers (widened by one cell, as the bins are), an upper
-    // bound on the rays that can cross it.
+    // Mirror tiles, exactly as SpecularSetup::new builds them.
+    let spec = SpecularSetup::new(prep, set, &grid, &dirs);
+    let mut items_per_dir = vec![0u64; dirs.len()];
+    let (tile_values, index_words, jobs, reflect_items) = match &spec {
+        None => (0, 0, 0, 0),
+        Some(s) => {
+            let ix = &s.index;
+            let words = ix.face_slot.len() + ix.index_start.len() + ix.tile_ids.len();
+            let words = words + ix.coverage.len();
+            let mut jobs = 0u64;
+            for (per_dir, items) in s.jobs.iter().zip(&mut items_per_dir) {
+                jobs += per_dir.len() as u64;
+                for job in per_dir {
+                    let mf = ix.face_slot[job.face as usize] as usize;
+                    let k = mf * ix.directions as usize + job.j as usize;
+                    *items += u64::from(ix.index_start[k + 1] - ix.index_start[k]);
+                }
+            }
+            let items = items_per_dir.iter().sum();
+            (ix.value_len() as u64, words as u64, jobs, items)
+        }
+    };
+    drop(spec);
+
+    // Bins of every transport direction, as both propagators build them, and the chunks the
+    // GPU propagator splits them (with the reflect items) into; and the cells each triangle's
+    // projected bounding box covers (widened by one cell, as the bins are), an upper bound on
+    // the rays that can cross it.
+    let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
+    let mut chunker = Chunker::new(vlf_gpu::bake::chunk_cap(limit, None));
+    let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;
     let mut k_max = 1u32;
     let mut binned_max = 0u64;
-    let mut binned_total = 0u64;
     let mut box_cells_max = 0u64;
+    // The most bytes one direction uploads.
+    let mut upload_max = 0u64;
     let (cell, n) = (grid.cell_size(), params.resolution as i64);
     let first = |x: f32| ((((x + 1.0) / cell - 0.5).floor() - 1.0) as i64).clamp(0, n - 1);
     let last = |x: f32| ((((x + 1.0) / cell - 0.5).ceil() + 1.0) as i64).clamp(0, n - 1);
-    for d in &dirs {
+    for (d, items) in dirs.iter().zip(&items_per_dir) {
         let proj = reference::project(prep, &d.frame);
         let bins = reference::bin_triangles(&proj, &grid);
         k_max = k_max.max(bins.max_len());
         binned_max = binned_max.max(bins.tris.len() as u64);
-        binned_total += bins.tris.len() as u64;
+        let bytes = ChunkBytes {
+            bin_start: bins.start.len() as u64 * 4,
+            bin_tris: bins.tris.len() as u64 * 4,
+            reflect_items: items * item_bytes,
+        };
+        upload_max = upload_max.max(bytes.sum());
+        chunker.push(bytes);
         let box_cells: u64 = proj
             .iter()
             .map(|q| {
@@ -652,29 +771,6 @@ pub fn plan_prepared(
             .sum();
         box_cells_max = box_cells_max.max(box_cells);
     }
-
-    // Mirror tiles, exactly as SpecularSetup::new builds them.
-    let spec = SpecularSetup::new(prep, set, &grid, &dirs);
-    let (tile_values, index_words, jobs, reflect_items) = match &spec {
-        None => (0, 0, 0, 0),
-        Some(s) => {
-            let ix = &s.index;
-            let words = ix.face_slot.len() + ix.index_start.len() + ix.tile_ids.len();
-            let words = words + ix.coverage.len();
-            let mut items = 0u64;
-            let mut jobs = 0u64;
-            for per_dir in &s.jobs {
-                jobs += per_dir.len() as u64;
-                for job in per_dir {
-                    let mf = ix.face_slot[job.face as usize] as usize;
-                    let k = mf * ix.directions as usize + job.j as usize;
-                    items += u64::from(ix.index_start[k + 1] - ix.index_start[k]);
-                }
-            }
-            (ix.value_len() as u64, words as u64, jobs, items)
-        }
-    };
-    drop(spec);
 
     let enc = vlf_core::format::DEFAULT_ENCODING.bytes_per_texel() as u64;
     let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
@@ -702,6 +798,19 @@ pub fn plan_prepared(
             16,
             1,
         ),
+    ];
+    if gpu && software {
+        items.push(item(
+            "software GPU driver (Mesa, LLVM, shaders)",
+            "host",
+            SOFTWARE_DRIVER_BYTES,
+            1,
+            1,
+        ));
+    }
+    // The items above do not depend on the parameters.
+    let fixed = items.len();
+    items.extend([
         item("triangles (prepared)", "host", tris, 48, 1),
         item(
             "texel arrays (area, centre, albedo, emission)",
@@ -711,7 +820,7 @@ pub fn plan_prepared(
             1,
         ),
         item("texel radiance (unshot, next, total)", "host", x, 16, 3),
-    ];
+    ]);
     if gpu {
         let k_gpu = u64::from(k_max.min(GPU_MAX_CROSSINGS));
         let active = prep
@@ -725,7 +834,12 @@ pub fn plan_prepared(
                     .count() as u64
             })
             .sum::<u64>();
-        let bin_words = dirs.len() as u64 * (tiles2 + 1) + binned_total;
+        let (total, largest) = (chunker.total(), chunker.largest());
+        // The propagator bins one direction at a time and writes it to its chunk; the writes'
+        // staging copies live until the next submission, every UPLOAD_FLUSH_BYTES.
+        let staging = total
+            .sum()
+            .min(vlf_gpu::bake::UPLOAD_FLUSH_BYTES + upload_max);
         items.extend([
             item("texel centres (upload copy)", "host", x, 16, 1),
             item("accumulators (read back)", "host", x, 32, 2),
@@ -736,21 +850,44 @@ pub fn plan_prepared(
                 16,
                 3,
             ),
-            item("tile bins, all directions", "host", bin_words, 4, 1),
-            item("reflect items", "host", reflect_items, 32, 1),
+            item(
+                "tile bins and starts (one direction)",
+                "host",
+                2 * (tiles2 + 1) + binned_max,
+                4,
+                1,
+            ),
+            item("projected triangles (one direction)", "host", tris, 36, 1),
+            item("upload staging (bins, items)", "host", staging, 1, 1),
+            item(
+                "reflect jobs (until the items are built)",
+                "host",
+                jobs,
+                job_bytes,
+                1,
+            ),
+            item("reflect items", "host", reflect_items, item_bytes, 1),
             item("encoded output file", "host", file, 1, 1),
             item("Bake::triangles", "gpu", tris, 48, 1),
             item("Bake::faces", "gpu", faces, 80, 1),
             item("Bake::texel_center", "gpu", x, 16, 1),
             item("Bake::active_texels", "gpu", active, 4, 1),
-            item(
-                "Bake::bin_start",
-                "gpu",
-                dirs.len() as u64 * (tiles2 + 1),
+            split_item(
+                "Bake::bin_start (all directions)",
+                "Bake::bin_start[k]",
                 4,
-                1,
+                total.bin_start,
+                largest.bin_start,
+                &chunker,
             ),
-            item("Bake::bin_tris", "gpu", binned_total, 4, 1),
+            split_item(
+                "Bake::bin_tris (all directions)",
+                "Bake::bin_tris[k]",
+                4,
+                total.bin_tris,
+                largest.bin_tris,
+                &chunker,
+            ),
             item(
                 "Bake::unshot (texels + tiles)",
                 "gpu",
@@ -772,7 +909,14 @@ pub fn plan_prepared(
             item("Bake::crossings (N² × k_max)", "gpu", n2 * k_gpu, 32, 1),
             item("Bake::tile_index", "gpu", index_words, 4, 1),
             item("Bake::frames", "gpu", set.len() as u64 * 3, 16, 1),
-            item("Bake::reflect_items", "gpu", reflect_items, 32, 1),
+            split_item(
+                "Bake::reflect_items (all directions)",
+                "Bake::reflect_items[k]",
+                item_bytes,
+                total.reflect_items,
+                largest.reflect_items,
+                &chunker,
+            ),
             item(
                 "Bake::directions (uniforms)",
                 "gpu",
@@ -833,12 +977,12 @@ pub fn plan_prepared(
     ));
     let host_bytes = sum(&items, "host");
     let device_bytes = sum(&items, "gpu");
-    let fixed_bytes = items[..3].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
+    let fixed_bytes = items[..fixed].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
     let largest_buffer = items
         .iter()
         .filter(|i| i.place == "gpu")
-        .max_by_key(|i| i.bytes)
-        .cloned();
+        .map(PlanItem::largest_buffer)
+        .max_by_key(|i| i.bytes);
     MemoryPlan {
         path: if gpu { "gpu" } else { "cpu" },
         resolution: params.resolution,
@@ -1162,5 +1306,114 @@ mod tests {
         let msg = format!("{err:#}");
         assert!(msg.contains("lower --directions (now 6)"), "{msg}");
         assert!(msg.contains("Raise --max-memory"), "{msg}");
+    }
+
+    #[test]
+    fn gpu_plan_splits_the_bins_into_chunks_as_the_propagator_does() {
+        let scene = cornell();
+        let p = BakeParams {
+            directions: 46,
+            resolution: 32,
+            tile: 8,
+            ..BakeParams::paper()
+        };
+        let prep = BakeScene::new(&scene, &p).unwrap();
+        let set = DirectionSet::at_least(p.directions).unwrap();
+        let with_limit = |bytes: u64| Budget {
+            buffer: Some(Limit {
+                bytes,
+                source: "test".into(),
+            }),
+            ..Budget::default()
+        };
+        let plan = |limit: u64| {
+            let mut plan = plan_prepared(&scene, &prep, &set, &p, true, true, &with_limit(limit));
+            plan.check(true);
+            plan
+        };
+        let find = |plan: &MemoryPlan, name: &str| {
+            plan.items
+                .iter()
+                .find(|i| i.name == name)
+                .unwrap_or_else(|| panic!("no {name} in {plan}"))
+                .clone()
+        };
+        let split_names = [
+            "Bake::bin_start (all directions)",
+            "Bake::bin_tris (all directions)",
+            "Bake::reflect_items (all directions)",
+        ];
+        let layout = |limit| vlf_gpu::bake::chunk_layout(&prep, &set, &p, limit, None);
+
+        // Default cap (128 MiB): one buffer each, as the propagator makes them.
+        let whole = plan(128 << 20);
+        assert!(whole.fits(), "{whole}");
+        let chunks = layout(128 << 20);
+        assert_eq!(chunks.len(), 1);
+        let tris = find(&whole, split_names[1]);
+        let s = tris.split.clone().expect("split item");
+        assert_eq!((s.buffers, s.largest, s.cap), (1, tris.bytes, 128 << 20));
+        assert_eq!(tris.bytes, chunks[0].bytes.bin_tris);
+        assert_eq!(
+            find(&whole, split_names[2]).bytes,
+            chunks[0].bytes.reflect_items
+        );
+        assert!(find(&whole, split_names[2]).bytes > 0, "mirror scene");
+        let host_bins = find(&whole, "tile bins and starts (one direction)").bytes;
+
+        // A limit of a quarter of the bins: several buffers with the propagator's split, the
+        // same totals, every part within the limit; the host fills one chunk at a time.
+        let limit = tris.bytes / 4;
+        let split = plan(limit);
+        let chunks = layout(limit);
+        assert!(chunks.len() >= 4, "{chunks:?}");
+        for (name, part) in split_names.iter().zip([
+            chunks.iter().map(|c| c.bytes.bin_start).max(),
+            chunks.iter().map(|c| c.bytes.bin_tris).max(),
+            chunks.iter().map(|c| c.bytes.reflect_items).max(),
+        ]) {
+            let (a, b) = (find(&whole, name), find(&split, name));
+            assert_eq!(a.bytes, b.bytes, "{name}: same total");
+            let s = b.split.expect("split item");
+            assert_eq!(s.buffers, chunks.len() as u64, "{name}");
+            assert_eq!(Some(s.largest), part, "{name}");
+            assert!(s.largest <= limit, "{name}: {s:?}");
+        }
+        assert_eq!(split.device_bytes, whole.device_bytes);
+        // The host side does not depend on the split.
+        assert_eq!(
+            find(&split, "tile bins and starts (one direction)").bytes,
+            host_bins
+        );
+        assert_eq!(split.host_bytes, whole.host_bytes);
+        assert!(
+            split.over_budget.iter().all(|o| !o.contains("Bake::bin_")),
+            "{:?}",
+            split.over_budget
+        );
+        // The largest buffer is a whole item or the largest part of a split one.
+        let biggest = split
+            .items
+            .iter()
+            .filter(|i| i.place == "gpu")
+            .map(|i| i.split.as_ref().map_or(i.bytes, |s| s.largest))
+            .max();
+        assert_eq!(split.largest_buffer.as_ref().map(|b| b.bytes), biggest);
+        assert!(split.to_string().contains(&format!(
+            "in {} buffers of ≤ {}",
+            chunks.len(),
+            human(limit)
+        )));
+
+        // Below one direction's bins: one direction per chunk, and that is still too large for
+        // one buffer (halving or refusal, as for any other buffer).
+        let one_dir = layout(1).iter().map(|c| c.bytes.bin_tris).max().unwrap();
+        let tiny = plan(one_dir - 4);
+        let s = find(&tiny, split_names[1]).split.unwrap();
+        assert_eq!(s.buffers as usize, layout(1).len());
+        assert_eq!(s.largest, one_dir);
+        assert!(!tiny.fits());
+        let big = tiny.largest_buffer.as_ref().unwrap();
+        assert!(big.bytes >= one_dir && big.bytes > one_dir - 4, "{big:?}");
     }
 }

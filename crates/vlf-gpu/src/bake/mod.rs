@@ -5,9 +5,12 @@
 //! [`gather`] → [`reflect`] (scenes with mirror/mixed faces only). Per iteration: upload the unshot radiance, clear the accumulators, run every
 //! direction, read the accumulators back and finish the iteration on the CPU with
 //! `reference::finish_iteration` (a few flops per texel, shared code, f64 energy sums).
-//! Triangle binning into tiles is done once on the CPU (`reference::bin_triangles`) and uploaded.
+//! Triangle binning into tiles is done once on the CPU (`reference::bin_triangles`) and uploaded
+//! in [`chunks`] of whole directions (one storage binding each, one `Cells`/`Reflect` bind group
+//! per chunk); the host holds one direction's bins at a time.
 
 mod cells;
+pub mod chunks;
 mod common;
 mod gather;
 mod interface;
@@ -22,6 +25,8 @@ use vlf_core::bake::{BakeParams, BakeScene};
 use vlf_core::directions::DirectionSet;
 use vlf_core::psf::PsfGrid;
 use wgpu::util::DeviceExt;
+
+pub use chunks::{Chunk, ChunkBytes, Chunker, DEFAULT_MAX_CHUNK_BYTES, chunk_cap};
 
 use crate::GpuContext;
 use crate::layout::{self, BakeDirection, CellEntry, Crossing, ReflectItem};
@@ -62,34 +67,71 @@ pub struct Progress {
     pub directions: usize,
 }
 
-struct Binned {
-    start: Vec<u32>,
-    tris: Vec<u32>,
-    /// Offset of each direction's tile starts in `start`.
-    base: Vec<u32>,
-    k_max: u32,
+/// Settings of the GPU propagator that do not change its result (the tests check that).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct GpuBakeOptions {
+    /// Cap on one chunk buffer (tile bins, tile starts, reflect items) in bytes; `None`:
+    /// [`DEFAULT_MAX_CHUNK_BYTES`]. Never above the adapter's binding limit (see [`chunk_cap`]).
+    pub max_chunk_bytes: Option<u64>,
 }
 
-fn bin_all(scene: &BakeScene, grid: &PsfGrid, dirs: &[TransportDir]) -> Binned {
-    let mut out = Binned {
-        start: Vec::new(),
-        tris: Vec::new(),
-        base: Vec::with_capacity(dirs.len()),
-        k_max: 1,
-    };
-    for d in dirs {
-        let bins = bin_triangles(&project(scene, &d.frame), grid);
-        out.k_max = out.k_max.max(bins.max_len());
-        out.base.push(out.start.len() as u32);
-        let offset = out.tris.len() as u32;
-        out.start.extend(bins.start.iter().map(|s| s + offset));
-        out.tris.extend_from_slice(&bins.tris);
+/// The largest storage buffer one binding may hold on `device`.
+pub fn binding_limit(device: &wgpu::Device) -> u64 {
+    let l = device.limits();
+    l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+}
+
+/// Where a direction's data lies in its chunk.
+#[derive(Clone, Copy)]
+struct DirSlot {
+    chunk: usize,
+    /// Offset of its tile starts in the chunk's `bin_start`.
+    bin_base: u32,
+    /// Offset of its first reflect item in the chunk's `reflect_items`.
+    items_base: u32,
+}
+
+/// The chunked buffers of one chunk of directions.
+struct ChunkBuffers {
+    bin_start: wgpu::Buffer,
+    bin_tris: wgpu::Buffer,
+    items: wgpu::Buffer,
+}
+
+/// The bytes one direction adds to the chunked buffers.
+fn direction_bytes(bins: &reference::Bins, items: u32) -> ChunkBytes {
+    ChunkBytes {
+        bin_start: bins.start.len() as u64 * 4,
+        bin_tris: bins.tris.len() as u64 * 4,
+        reflect_items: u64::from(items) * size_of::<ReflectItem>() as u64,
     }
-    out
+}
+
+/// How [`propagate_with`] splits the directions of `scene` into chunks with a cap of
+/// `max_chunk_bytes` (`None`: the default) on an adapter whose binding limit is `limit`.
+/// Bins every transport direction once (as the propagator does).
+pub fn chunk_layout(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    limit: u64,
+    max_chunk_bytes: Option<u64>,
+) -> Vec<Chunk> {
+    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
+    let (dirs, _) = reference::all_directions(scene, set, params);
+    let spec = SpecularSetup::new(scene, set, &grid, &dirs);
+    let items = spec.as_ref().map(|s| tile_data(s).item_ranges);
+    let mut chunker = Chunker::new(chunk_cap(limit, max_chunk_bytes));
+    for (i, d) in dirs.iter().enumerate() {
+        let bins = bin_triangles(&project(scene, &d.frame), &grid);
+        let count = items.as_ref().map_or(0, |r| r[i].1);
+        chunker.push(direction_bytes(&bins, count));
+    }
+    chunker.chunks().to_vec()
 }
 
 fn check_size(ctx: &GpuContext, what: &'static str, bytes: u64) -> Result<(), GpuBakeError> {
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    let limit = binding_limit(&ctx.device);
     if bytes > limit {
         return Err(GpuBakeError::TooLarge {
             what,
@@ -189,22 +231,169 @@ pub fn propagate(
     params: &BakeParams,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Propagated, GpuBakeError> {
+    propagate_with(
+        ctx,
+        scene,
+        set,
+        params,
+        &GpuBakeOptions::default(),
+        progress,
+    )
+}
+
+/// Bytes written to the GPU between two submissions while uploading the bins: bounds the
+/// staging memory `queue.write_buffer` holds until its submission completes.
+pub const UPLOAD_FLUSH_BYTES: u64 = 32 << 20;
+
+/// Bins every transport direction (CPU) and uploads the bins and reflect items into chunk
+/// buffers. Two passes over the directions: the first bins to size the chunks (and find the
+/// longest bin), the second bins again and writes each direction straight into its chunk, so
+/// the host never holds more than one direction's bins (binning is cheap next to one
+/// propagation iteration). Returns each direction's place, the chunks' buffers and the
+/// longest tile bin.
+fn upload_bins(
+    ctx: &GpuContext,
+    scene: &BakeScene,
+    grid: &PsfGrid,
+    dirs: &[TransportDir],
+    tdata: Option<&TileData>,
+    cap: u64,
+) -> Result<(Vec<DirSlot>, Vec<ChunkBuffers>, u32), GpuBakeError> {
+    let items_of = |i: usize| tdata.map_or((0, 0), |t| t.item_ranges[i]);
+    let mut chunker = Chunker::new(cap);
+    let mut k_max = 1;
+    for (i, d) in dirs.iter().enumerate() {
+        let bins = bin_triangles(&project(scene, &d.frame), grid);
+        k_max = k_max.max(bins.max_len());
+        chunker.push(direction_bytes(&bins, items_of(i).1));
+    }
+    let mut buffers = Vec::with_capacity(chunker.chunks().len());
+    for (k, chunk) in chunker.chunks().iter().enumerate() {
+        let one = chunk.directions.len() == 1;
+        let b = &chunk.bytes;
+        for (what, what_one, bytes) in [
+            (
+                "the tile bins of a chunk of directions",
+                "the tile bins of one direction",
+                b.bin_tris,
+            ),
+            (
+                "the tile starts of a chunk of directions",
+                "the tile starts of one direction",
+                b.bin_start,
+            ),
+            (
+                "the reflect items of a chunk of directions",
+                "the reflect items of one direction",
+                b.reflect_items,
+            ),
+        ] {
+            check_size(ctx, if one { what_one } else { what }, bytes)?;
+        }
+        let dst = wgpu::BufferUsages::COPY_DST;
+        buffers.push(ChunkBuffers {
+            bin_start: empty(ctx, &format!("Bake::bin_start[{k}]"), b.bin_start, dst),
+            bin_tris: empty(ctx, &format!("Bake::bin_tris[{k}]"), b.bin_tris, dst),
+            items: empty(
+                ctx,
+                &format!("Bake::reflect_items[{k}]"),
+                b.reflect_items,
+                dst,
+            ),
+        });
+    }
+    let mut slots = Vec::with_capacity(dirs.len());
+    let mut pending = 0u64;
+    let mut start = Vec::new();
+    for (k, chunk) in chunker.chunks().iter().enumerate() {
+        let buf = &buffers[k];
+        let (item_base, _) = items_of(chunk.directions.start);
+        let mut at = ChunkBytes::default();
+        for i in chunk.directions.clone() {
+            let bins = bin_triangles(&project(scene, &dirs[i].frame), grid);
+            let (item_first, item_count) = items_of(i);
+            slots.push(DirSlot {
+                chunk: k,
+                bin_base: (at.bin_start / 4) as u32,
+                items_base: item_first - item_base,
+            });
+            let offset = (at.bin_tris / 4) as u32;
+            start.clear();
+            start.extend(bins.start.iter().map(|s| s + offset));
+            let items: &[ReflectItem] = match tdata {
+                Some(t) => &t.items[item_first as usize..(item_first + item_count) as usize],
+                None => &[],
+            };
+            let size = direction_bytes(&bins, item_count);
+            for (buffer, offset, bytes) in [
+                (&buf.bin_start, at.bin_start, bytemuck::cast_slice(&start)),
+                (&buf.bin_tris, at.bin_tris, bytemuck::cast_slice(&bins.tris)),
+                (&buf.items, at.reflect_items, bytemuck::cast_slice(items)),
+            ] {
+                if !bytes.is_empty() {
+                    ctx.queue.write_buffer(buffer, offset, bytes);
+                }
+            }
+            at = ChunkBytes {
+                bin_start: at.bin_start + size.bin_start,
+                bin_tris: at.bin_tris + size.bin_tris,
+                reflect_items: at.reflect_items + size.reflect_items,
+            };
+            pending += size.sum();
+            if pending >= UPLOAD_FLUSH_BYTES {
+                ctx.queue.submit(None);
+                let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                pending = 0;
+            }
+        }
+        // The second pass bins exactly as the first (same function, same input).
+        debug_assert_eq!(at, chunk.bytes);
+    }
+    debug_assert_eq!(slots.len(), dirs.len());
+    ctx.queue.submit(None);
+    log::debug!(
+        "GPU bake: tile bins of {} directions in {} chunk(s) of ≤ {} bytes (largest {:?})",
+        dirs.len(),
+        buffers.len(),
+        chunker.cap(),
+        chunker.largest()
+    );
+    Ok((slots, buffers, k_max))
+}
+
+/// [`propagate`] with [`GpuBakeOptions`]; the result does not depend on them.
+pub fn propagate_with(
+    ctx: &GpuContext,
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    options: &GpuBakeOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Propagated, GpuBakeError> {
     let device = &ctx.device;
     let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
     let n = params.resolution;
     let (dirs, quadrature) = reference::all_directions(scene, set, params);
-    let spec = SpecularSetup::new(scene, set, &grid, &dirs);
-    let tdata = spec.as_ref().map(tile_data);
+    let mut spec = SpecularSetup::new(scene, set, &grid, &dirs);
+    let mut tdata = spec.as_ref().map(tile_data);
+    if let Some(s) = &mut spec {
+        // The jobs live on in the reflect items; only the index is needed from here on.
+        s.jobs = Vec::new();
+    }
     let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
-    let binned = bin_all(scene, &grid, &dirs);
-    let k_max = binned.k_max.min(MAX_CROSSINGS);
+    let cap = chunk_cap(binding_limit(device), options.max_chunk_bytes);
+    let (slots, chunk_buffers, k_max) = upload_bins(ctx, scene, &grid, &dirs, tdata.as_ref(), cap)?;
+    if let Some(t) = &mut tdata {
+        // Uploaded with their chunks.
+        t.items = Vec::new();
+    }
+    let k_max = k_max.min(MAX_CROSSINGS);
     let cells_n = u64::from(n) * u64::from(n);
     check_size(
         ctx,
         "the ray crossing lists",
         cells_n * u64::from(k_max) * size_of::<Crossing>() as u64,
     )?;
-    check_size(ctx, "the tile bins", binned.tris.len() as u64 * 4)?;
     let n_tex = scene.texel_count();
     check_size(
         ctx,
@@ -216,13 +405,6 @@ pub fn propagate(
         "the unshot radiance (texels and mirror tiles)",
         (n_tex + tile_len) as u64 * 16,
     )?;
-    if let Some(t) = &tdata {
-        check_size(
-            ctx,
-            "the reflect items",
-            t.items.len() as u64 * size_of::<ReflectItem>() as u64,
-        )?;
-    }
 
     // Geometry and atlas (uploaded once).
     let triangles = buffer(
@@ -263,18 +445,6 @@ pub fn propagate(
         &active_list,
         wgpu::BufferUsages::empty(),
     );
-    let bin_start = buffer(
-        ctx,
-        "Bake::bin_start",
-        &binned.start,
-        wgpu::BufferUsages::empty(),
-    );
-    let bin_tris = buffer(
-        ctx,
-        "Bake::bin_tris",
-        &binned.tris,
-        wgpu::BufferUsages::empty(),
-    );
     let mut unshot_init = scene.emission.clone();
     unshot_init.resize(n_tex + tile_len, [0.0; 4]);
     let unshot = buffer(
@@ -285,7 +455,6 @@ pub fn propagate(
     );
     let none_u32: Vec<u32> = Vec::new();
     let none_v4: Vec<[f32; 4]> = Vec::new();
-    let none_items: Vec<ReflectItem> = Vec::new();
     let tile_index = buffer(
         ctx,
         "Bake::tile_index",
@@ -296,12 +465,6 @@ pub fn propagate(
         ctx,
         "Bake::frames",
         tdata.as_ref().map_or(&none_v4, |t| &t.frames),
-        wgpu::BufferUsages::empty(),
-    );
-    let items = buffer(
-        ctx,
-        "Bake::reflect_items",
-        tdata.as_ref().map_or(&none_items, |t| &t.items),
         wgpu::BufferUsages::empty(),
     );
     let next_tiles = empty(
@@ -362,7 +525,7 @@ pub fn propagate(
             };
             let (pv, pw) = lk(d.frame.w);
             let (mv, mw) = lk(-d.frame.w);
-            let (items_base, items_count) = tdata.as_ref().map_or((0, 0), |t| t.item_ranges[i]);
+            let items_count = tdata.as_ref().map_or(0, |t| t.item_ranges[i].1);
             let off = tdata.as_ref().map_or([0; 4], |t| t.offsets);
             let g = BakeDirection {
                 u: d.frame.u.extend(0.0).into(),
@@ -373,7 +536,7 @@ pub fn propagate(
                 n,
                 tile: params.tile,
                 k_max,
-                bin_base: binned.base[i],
+                bin_base: slots[i].bin_base,
                 tiles_per_side: grid.tiles_per_side(),
                 active_texels: active_list.len() as u32,
                 is_sun: u32::from(d.sun.is_some()),
@@ -390,7 +553,7 @@ pub fn propagate(
                 tile_ids_off: off[2],
                 coverage_off: off[3],
                 tile_values_off: n_tex as u32,
-                items_base,
+                items_base: slots[i].items_base,
                 items_count,
                 has_tiles: u32::from(tdata.is_some()),
                 _pad: 0,
@@ -435,17 +598,37 @@ pub fn propagate(
     let interface_pass = interface::InterfacePass::new(device, &globals_layout);
     let gather_pass = gather::GatherPass::new(device, &globals_layout);
     let reflect_pass = reflect::ReflectPass::new(device, &globals_layout);
-    let cells_bg = cells_pass.bind_group(
-        device,
-        &[
-            &triangles,
-            &bin_start,
-            &bin_tris,
-            &cell_count,
-            &cells,
-            &overflow,
-        ],
-    );
+    // One Cells and one Reflect bind group per chunk of directions.
+    let chunk_groups: Vec<(wgpu::BindGroup, wgpu::BindGroup)> = chunk_buffers
+        .iter()
+        .map(|c| {
+            let cells_bg = cells_pass.bind_group(
+                device,
+                &[
+                    &triangles,
+                    &c.bin_start,
+                    &c.bin_tris,
+                    &cell_count,
+                    &cells,
+                    &overflow,
+                ],
+            );
+            let reflect_bg = reflect_pass.bind_group(
+                device,
+                &[
+                    &faces,
+                    &cell_count,
+                    &cells,
+                    &crossings,
+                    &tile_index,
+                    &frames,
+                    &c.items,
+                    &next_tiles,
+                ],
+            );
+            (cells_bg, reflect_bg)
+        })
+        .collect();
     let interface_bg = interface_pass.bind_group(
         device,
         &[
@@ -457,19 +640,6 @@ pub fn propagate(
             &tile_index,
             &frames,
             &spec_escape,
-        ],
-    );
-    let reflect_bg = reflect_pass.bind_group(
-        device,
-        &[
-            &faces,
-            &cell_count,
-            &cells,
-            &crossings,
-            &tile_index,
-            &frames,
-            &items,
-            &next_tiles,
         ],
     );
     let gather_bg = gather_pass.bind_group(
@@ -541,9 +711,10 @@ pub fn propagate(
                 });
                 for &d in chunk {
                     let offset = [(d as u64 * DIR_STRIDE) as u32];
+                    let (cells_bg, reflect_bg) = &chunk_groups[slots[d].chunk];
                     pass.set_bind_group(0, &globals, &offset);
                     pass.set_pipeline(&cells_pass.pipeline);
-                    pass.set_bind_group(1, &cells_bg, &[]);
+                    pass.set_bind_group(1, cells_bg, &[]);
                     pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
                     pass.set_pipeline(&interface_pass.pipeline);
                     pass.set_bind_group(1, &interface_bg, &[]);
@@ -557,7 +728,7 @@ pub fn propagate(
                     if count > 0 {
                         let g = dispatch_2d(count * m * m, 64, max_dim);
                         pass.set_pipeline(&reflect_pass.pipeline);
-                        pass.set_bind_group(1, &reflect_bg, &[]);
+                        pass.set_bind_group(1, reflect_bg, &[]);
                         pass.dispatch_workgroups(g.0, g.1, 1);
                     }
                 }
