@@ -28,6 +28,8 @@ struct ChartScene {
     /// Sweep grid when not `--quick`: `full`, or `quick` where a full grid would take too long
     /// (the high preset alone takes many minutes on cornell-suzanne on a 2-core machine).
     grid: &'static str,
+    /// Also bake the high preset (minutes on a 2-core machine; only where it stays affordable).
+    high: bool,
 }
 
 /// Samples per pixel and seed of the references we path trace ourselves. The sweep's own
@@ -42,6 +44,7 @@ const SCENES: &[ChartScene] = &[
         shared_ref: Some("cornell-ref.exr"),
         view: &[],
         grid: "full",
+        high: true,
     },
     ChartScene {
         name: "cornell-box-mirror",
@@ -49,6 +52,7 @@ const SCENES: &[ChartScene] = &[
         shared_ref: Some("cornell-mirror-ref.exr"),
         view: &[],
         grid: "full",
+        high: false,
     },
     // The viewpoints suggested in ../shared/scenes/README.md (the files have no camera).
     ChartScene {
@@ -64,6 +68,7 @@ const SCENES: &[ChartScene] = &[
             "75",
         ],
         grid: "full",
+        high: false,
     },
     ChartScene {
         name: "cornell-suzanne",
@@ -78,6 +83,7 @@ const SCENES: &[ChartScene] = &[
             "40",
         ],
         grid: "full",
+        high: false,
     },
 ];
 
@@ -143,6 +149,9 @@ pub fn chart(root: &Path, args: &[String]) -> Result<()> {
                 .args(["--grid", if quick { "quick" } else { s.grid }])
                 .args(["--spp-max", if quick { "16" } else { "256" }])
                 .args(s.view);
+            if s.high && !quick {
+                c.arg("--with-high");
+            }
             step(&format!("sweep of {}", s.name), &mut c)?;
         }
     }

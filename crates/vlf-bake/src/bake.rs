@@ -131,7 +131,7 @@ pub struct EnergyReport {
 pub struct MemoryReport {
     /// Radiance during propagation: unshot, next and total maps (f32 RGBA) plus accumulators.
     pub propagation_bytes: u64,
-    /// Radiance kept for rendering (total map, f32 in memory).
+    /// Radiance kept for rendering (total map, in its stored encoding in memory).
     pub render_bytes: u64,
     /// Of which the sparse mirror tiles (total map).
     pub tile_bytes: u64,
@@ -211,7 +211,9 @@ pub fn bake_scene(
     let t = Instant::now();
     let iterations = out.iterations;
     let energy = out.energy.clone();
-    let lf = bake::assemble(&scene, &prep, params, set.clone(), out, stats);
+    // A non-finite radiance is a bug or a degenerate input: refuse it rather than write it.
+    let lf = bake::try_assemble(&scene, &prep, params, set.clone(), out, stats)
+        .with_context(|| format!("assembling the light field of {}", scene_path.display()))?;
     let bytes = vlf_core::format::write_atomic(output, &lf)?;
     let t_write = t.elapsed().as_secs_f64();
     let phases: Vec<(String, f64)> = [
@@ -250,8 +252,10 @@ pub fn bake_scene(
         },
         memory: MemoryReport {
             propagation_bytes: (texels + tile_values) * 3 * 16 + texels * 32,
-            render_bytes: (texels + tile_values) * 16,
-            tile_bytes: tile_values * 16,
+            render_bytes: (lf.radiance.byte_len()
+                + lf.tiles.as_ref().map_or(0, |t| t.radiance.byte_len()))
+                as u64,
+            tile_bytes: lf.tiles.as_ref().map_or(0, |t| t.radiance.byte_len()) as u64,
             plan,
         },
         output_bytes: bytes,

@@ -38,8 +38,8 @@ use crate::{Compute, open_device};
 pub enum GridArg {
     /// The presets (draft, auto) and directions {126, 606} × resolution {32, 64}.
     Quick,
-    /// Quick plus the high preset, directions {246, 1126}, resolution 128, and variations of
-    /// iterations, perturbed directions and tile size around the default.
+    /// Quick plus directions {246, 1126}, resolution 128, and variations of iterations,
+    /// perturbed directions and tile size around the default.
     Full,
 }
 
@@ -83,10 +83,17 @@ pub struct SweepArgs {
     /// average over the pixel square).
     #[arg(long, default_value_t = 16)]
     pub render_spp: u32,
+    /// Also bake the high preset (slow: 2,206 directions and 128–512 rays per side).
+    #[arg(long)]
+    pub with_high: bool,
+    /// Bake only the grid points with these labels (comma-separated, e.g. `auto,l=126 N=128`).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
     /// Skip the matrix radiosity baseline.
     #[arg(long)]
     pub no_radiosity: bool,
-    /// Also write every rendered image as EXR into this directory.
+    /// Also write every rendered image as EXR and as a PNG preview (exposed so that the
+    /// reference's mean luminance is 0.18, ACES tone map) into this directory.
     #[arg(long)]
     pub images: Option<PathBuf>,
 }
@@ -214,7 +221,7 @@ impl Point3 {
 }
 
 /// The bakes of a grid, cheapest first (an interrupted sweep keeps the cheap points).
-fn plan(grid: GridArg) -> Vec<Point3> {
+fn plan(grid: GridArg, high: bool) -> Vec<Point3> {
     let mut v = vec![
         Point3::preset(QualityArg::Draft, "draft"),
         Point3::grid(126, 32),
@@ -245,6 +252,8 @@ fn plan(grid: GridArg) -> Vec<Point3> {
             p.perturb = Some(k);
             v.push(p);
         }
+    }
+    if high {
         v.push(Point3::preset(QualityArg::High, "high"));
     }
     v
@@ -293,6 +302,8 @@ struct Sweep<'a> {
     reference: Image,
     rows: Vec<Row>,
     scene_name: String,
+    /// Exposure (stops) of the PNG previews: the reference's mean luminance at 0.18.
+    exposure: f32,
 }
 
 impl Sweep<'_> {
@@ -311,7 +322,13 @@ impl Sweep<'_> {
             std::fs::create_dir_all(dir)?;
             let name = format!("{}-{}-{}.exr", row.method, row.label, row.spp)
                 .replace([' ', '=', '/'], "_");
-            image::write_exr(dir.join(name), image)?;
+            image::write_exr(dir.join(&name), image)?;
+            image::write_png(
+                dir.join(name).with_extension("png"),
+                image,
+                self.exposure,
+                image::Tonemap::Aces,
+            )?;
         }
         eprintln!(
             "{:<22} {:<28} time {:>8.2} s  relMSE {:.3e}  FLIP {:.4}",
@@ -386,11 +403,28 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
         .scene
         .file_stem()
         .map_or_else(|| "scene".into(), |s| s.to_string_lossy().into_owned());
+    let [r, g, b] = reference.mean();
+    let mean = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    let exposure = if mean > 0.0 {
+        (0.18 / mean).log2() as f32
+    } else {
+        0.0
+    };
+    if let Some(dir) = &args.images {
+        std::fs::create_dir_all(dir)?;
+        image::write_png(
+            dir.join("reference.png"),
+            &reference,
+            exposure,
+            image::Tonemap::Aces,
+        )?;
+    }
     let mut sweep = Sweep {
         args,
         reference,
         rows: Vec::new(),
         scene_name,
+        exposure,
     };
     let sky = args.sky;
     let tmp = tempdir_next_to(&args.csv)?;
@@ -432,7 +466,10 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
     }
 
     // Virtual light field over the grid.
-    for (i, p) in plan(args.grid).iter().enumerate() {
+    for (i, p) in plan(args.grid, args.with_high).iter().enumerate() {
+        if !args.only.is_empty() && !args.only.contains(&p.label) {
+            continue;
+        }
         let bake_args = p.args(sky);
         let out = tmp.join(format!("bake-{i}.vlf"));
         let report = match bake_scene(

@@ -1,0 +1,54 @@
+//! `--quality auto` on the shared scenes: the parameters docs/QUALITY.md lists, so a change of
+//! the rules shows up here and in that table together.
+
+use std::path::PathBuf;
+
+use vlf_core::bake::{Quality, auto};
+
+fn shared(rel: &str) -> PathBuf {
+    PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/scenes"
+    ))
+    .join(rel)
+}
+
+#[test]
+fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
+    // (scene, rays per side, tile, perturbed copies, whether the sun rule fired)
+    let table = [
+        ("cornell-box/cornell.gltf", 64, 16, 0, false),
+        ("cornell-box-mirror/cornell-mirror.gltf", 64, 16, 0, false),
+        (
+            "cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf",
+            64,
+            1,
+            0,
+            false,
+        ),
+        ("fog-room/VolumetricFogExample.glb", 128, 8, 0, true),
+        ("lava-circuit/DepthOfFieldExample.glb", 256, 4, 0, false),
+        ("sphere-room/room.glb", 64, 1, 0, false),
+    ];
+    for (rel, n, m, perturb, sun_rule) in table {
+        let scene = vlf_core::scene::load(&shared(rel)).unwrap();
+        let r = auto::choose(&scene, Quality::Auto);
+        let got = (r.params.resolution, r.params.tile, r.params.perturb);
+        assert_eq!(got, (n, m, perturb), "{rel}: {:#?}", r.reasons);
+        assert_eq!(r.params.directions, 512, "{rel}");
+        let fired = r.reasons.iter().any(|x| x.contains("sun's sharp shadows"));
+        // lava-circuit has a sun too, but its resolution is already the preset's maximum.
+        assert_eq!(fired, sun_rule, "{rel}: {:#?}", r.reasons);
+        r.params.validate().unwrap();
+    }
+}
+
+#[test]
+fn presets_grow_monotonically() {
+    let scene = vlf_core::scene::load(&shared("cornell-box/cornell.gltf")).unwrap();
+    let d = auto::choose(&scene, Quality::Draft).params;
+    let a = auto::choose(&scene, Quality::Auto).params;
+    let h = auto::choose(&scene, Quality::High).params;
+    assert!(d.directions < a.directions && a.directions < h.directions);
+    assert!(d.resolution <= a.resolution && a.resolution <= h.resolution);
+}
