@@ -17,8 +17,7 @@
 //   the specular part from the sparse per-direction tiles: radiance towards the eye travels
 //   against the view ray, so the three sphere vertices of pass 1 are taken in the opposite
 //   sense, with the pass-2 weights; for each, the position maps into that direction's ray grid
-//   and the tile values of the covered cells around it are filtered bilinearly
-//   (vlf_gpu::render::final_radiance::specular_radiance mirrors this on the CPU).
+//   and the tile values of the covered cells around it are filtered bilinearly.
 //
 // Output: this sample's radiance (rgb; a = 1 where a face is seen) in `radiance_out`. Stills
 // with several jittered samples (sample_count > 1) also accumulate it into `accum` with weight

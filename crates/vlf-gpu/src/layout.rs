@@ -69,7 +69,7 @@ pub struct BakeDirection {
     pub n: u32,
     pub tile: u32,
     pub k_max: u32,
-    /// Offset of this direction's tile starts in the bin buffer.
+    /// Offset of this direction's tile starts in its chunk's bin buffers (`bake/chunks.rs`).
     pub bin_base: u32,
     pub tiles_per_side: u32,
     pub active_texels: u32,

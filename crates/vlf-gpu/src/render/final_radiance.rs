@@ -7,12 +7,13 @@
 //!   the chart (never across faces or sides). The atlas is a texture read with `textureLoad`
 //!   (see [`super::upload`]); the bilinear filter is done by hand in f32 so the CPU reproduces
 //!   it exactly ([`diffuse_radiance`]).
-//! * **Mirror and mixed faces (`kind != FACE_DIFFUSE`) are not view-dependent yet.** They will
-//!   blend the sparse per-direction radiance tiles (issue 5) of the three PSFs named by pass 1,
-//!   weighted by pass 2 (paper §4's `Ls(ω,s,t,u,v,p) = Σ αᵢ Ls(ωᵢ,…)`); pass 1 and 2 outputs are
-//!   already bound to this pass for that. Until the tiles exist these faces render their stored
-//!   diffuse texels exactly like diffuse faces — for a perfect mirror that is the (black or
-//!   dim) diffuse part only, so mirrors look wrong by design at this stage.
+//! * Mirror and mixed faces (`kind != FACE_DIFFUSE`): the diffuse texels (the diffuse part of
+//!   mixed faces) plus the specular part from the sparse per-direction tiles: radiance towards
+//!   the eye travels against the view ray, so the three sphere vertices of pass 1 are taken in
+//!   the opposite sense with the pass-2 weights (paper §4's `Ls(ω,s,t,u,v,p) = Σ αᵢ Ls(ωᵢ,…)`);
+//!   for each, the position maps into that direction's ray grid and the tile values of the
+//!   covered cells around it are filtered bilinearly. (There is no CPU copy of this part; the
+//!   mirror accuracy tests compare whole images with the path-traced reference instead.)
 //!
 //! Output: this sample's radiance in an `Rgba32Float` render target (what the display, stills
 //! and tests read). Stills with several jittered samples also accumulate into a storage buffer:
