@@ -311,21 +311,27 @@ fn series_for(rows: &[Row], axis: Axis, metric: &str) -> Vec<Series> {
             marker: Marker::Diamond,
         },
     ];
-    let mut rad = pick("radiosity_gs");
-    rad.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let rad = pick("radiosity_gs");
     if !rad.is_empty() {
         v.push(Series {
-            name: "matrix radiosity (Gauss-Seidel)".into(),
+            name: "radiosity GS, best for the cost".into(),
+            color: "#2ca02c",
+            points: pareto(&rad),
+            line: true,
+            marker: Marker::Triangle,
+        });
+        v.push(Series {
+            name: "radiosity GS (all points)".into(),
             color: "#2ca02c",
             points: rad,
-            line: true,
+            line: false,
             marker: Marker::Triangle,
         });
     }
     let jac = pick("radiosity_jacobi_gpu");
     if !jac.is_empty() {
         v.push(Series {
-            name: "matrix radiosity (Jacobi, GPU)".into(),
+            name: "radiosity Jacobi (GPU)".into(),
             color: "#17becf",
             points: jac,
             line: false,
