@@ -25,8 +25,8 @@ struct ChartScene {
     shared_ref: Option<&'static str>,
     /// `vlf-bake` view arguments (empty: the glTF camera 0).
     view: &'static [&'static str],
-    /// Sweep grid when not `--quick`: `full`, or `quick` where a full grid would take too long
-    /// (the high preset alone takes many minutes on cornell-suzanne on a 2-core machine).
+    /// Sweep grid when not `--quick`: `full`, or `quick` for a scene where the full grid would
+    /// take too long (on the 2-core VM the full grids took 3.5, 4.5, 5 and 13 minutes).
     grid: &'static str,
     /// Also bake the high preset (minutes on a 2-core machine; only where it stays affordable).
     high: bool,
