@@ -178,33 +178,10 @@ fn main() {
         eprintln!(
             "VLF CPU reference bake ({} iterations) {vlf_s:.1} s; radiosity vs VLF: mean per-texel relative difference {:.4} (radiosity seed vs seed {:.4}); face means: room (faces 0-6) within {room:.4}, blocks within {blocks:.4}",
             vlf.iterations,
-            mean_texel_difference(&prep, &g.radiance, &vlf.radiance),
-            mean_texel_difference(&prep, &g.radiance, &g2.radiance),
+            radiosity::mean_texel_difference(&prep, &g.radiance, &vlf.radiance),
+            radiosity::mean_texel_difference(&prep, &g.radiance, &g2.radiance),
         );
     }
-}
-
-/// Area-weighted mean of |a − b|₁ / |b|₁ over covered texels with |b|₁ above 1 % of the mean
-/// (as in `tests/radiosity.rs`).
-fn mean_texel_difference(prep: &BakeScene, a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let rgb = |v: [f32; 4]| Vec4::from(v).truncate();
-    let (mut sum, mut wsum) = (0f64, 0f64);
-    for t in 0..prep.texel_count() {
-        sum += f64::from(prep.texel_area[t] * rgb(b[t]).element_sum());
-        wsum += f64::from(prep.texel_area[t]);
-    }
-    let floor = 0.01 * sum / wsum;
-    let (mut num, mut den) = (0f64, 0f64);
-    for t in 0..prep.texel_count() {
-        let w = f64::from(prep.texel_area[t]);
-        let bb = f64::from(rgb(b[t]).element_sum());
-        if w <= 0.0 || bb < floor {
-            continue;
-        }
-        num += w * f64::from((rgb(a[t]) - rgb(b[t])).abs().element_sum()) / bb;
-        den += w;
-    }
-    num / den
 }
 
 /// The exact solution of the same system, for reference: Gauss–Seidel in f64 until a sweep

@@ -378,8 +378,8 @@ fn cornell_box_agrees_with_the_vlf_reference_bake() {
         &seed2,
         None,
     );
-    let texel_diff = mean_texel_difference(&prep, &rad.radiance, &vlf.radiance);
-    let seed_diff = mean_texel_difference(&prep, &rad.radiance, &rad2.radiance);
+    let texel_diff = radiosity::mean_texel_difference(&prep, &rad.radiance, &vlf.radiance);
+    let seed_diff = radiosity::mean_texel_difference(&prep, &rad.radiance, &rad2.radiance);
     let (mut room, mut blocks) = (0f32, 0f32);
     let (mut pa, mut pb) = (0f64, 0f64);
     for (fi, f) in prep.faces.iter().enumerate() {
@@ -412,29 +412,6 @@ fn cornell_box_agrees_with_the_vlf_reference_bake() {
     assert!(room < 0.06, "room face means: {room}");
     assert!(blocks < 0.15, "block face means: {blocks}");
     assert!(power < 0.02, "reflected power: {power}");
-}
-
-/// Area-weighted mean of |a − b|₁ / |b|₁ over covered texels that receive light (|b|₁ above
-/// 1 % of the mean: the closed insides of the blocks and the outsides of the walls are left
-/// out).
-fn mean_texel_difference(prep: &BakeScene, a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
-    let (mut sum, mut wsum) = (0f64, 0f64);
-    for t in 0..prep.texel_count() {
-        sum += f64::from(prep.texel_area[t] * rgb(b[t]).element_sum());
-        wsum += f64::from(prep.texel_area[t]);
-    }
-    let floor = 0.01 * sum / wsum;
-    let (mut num, mut den) = (0f64, 0f64);
-    for t in 0..prep.texel_count() {
-        let w = f64::from(prep.texel_area[t]);
-        let bb = f64::from(rgb(b[t]).element_sum());
-        if w <= 0.0 || bb < floor {
-            continue;
-        }
-        num += w * f64::from((rgb(a[t]) - rgb(b[t])).abs().element_sum()) / bb;
-        den += w;
-    }
-    num / den
 }
 
 /// The convenience bake refuses mirrors (radiosity is diffuse only) and reports its figures.

@@ -228,3 +228,28 @@ pub fn bake(
     let lf = to_light_field(scene, &prep, params, directions, &solution);
     Ok((lf, report))
 }
+
+/// Area-weighted mean of |a − b|₁ / |b|₁ over covered texels that receive light (|b|₁ above
+/// 1 % of the area-weighted mean: the closed insides of solids and the outsides of walls are
+/// left out). Compares two per-texel radiance arrays of `prep`'s atlas (radiosity against a VLF
+/// bake, or two seeds).
+pub fn mean_texel_difference(prep: &BakeScene, a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
+    let rgb = |v: [f32; 4]| Vec4::from(v).truncate();
+    let (mut sum, mut wsum) = (0f64, 0f64);
+    for t in 0..prep.texel_count() {
+        sum += f64::from(prep.texel_area[t] * rgb(b[t]).element_sum());
+        wsum += f64::from(prep.texel_area[t]);
+    }
+    let floor = 0.01 * sum / wsum;
+    let (mut num, mut den) = (0f64, 0f64);
+    for t in 0..prep.texel_count() {
+        let w = f64::from(prep.texel_area[t]);
+        let bb = f64::from(rgb(b[t]).element_sum());
+        if w <= 0.0 || bb < floor {
+            continue;
+        }
+        num += w * f64::from((rgb(a[t]) - rgb(b[t])).abs().element_sum()) / bb;
+        den += w;
+    }
+    num / den
+}
