@@ -17,8 +17,8 @@ fn shared(rel: &str) -> PathBuf {
 fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
     // (scene, rays per side, tile, perturbed copies, whether the sun rule fired)
     let table = [
-        ("cornell-box/cornell.gltf", 64, 16, 0, false),
-        ("cornell-box-mirror/cornell-mirror.gltf", 64, 16, 0, false),
+        ("cornell-box/cornell.gltf", 64, 4, 0, false),
+        ("cornell-box-mirror/cornell-mirror.gltf", 64, 4, 0, false),
         (
             "cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf",
             64,
@@ -26,7 +26,7 @@ fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
             0,
             false,
         ),
-        ("fog-room/VolumetricFogExample.glb", 128, 8, 0, true),
+        ("fog-room/VolumetricFogExample.glb", 128, 4, 0, true),
         ("lava-circuit/DepthOfFieldExample.glb", 256, 4, 0, false),
         ("sphere-room/room.glb", 64, 1, 0, false),
     ];
