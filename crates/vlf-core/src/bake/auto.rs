@@ -121,8 +121,8 @@ pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
         let frame = PsfFrame::new(Vec3::new(0.3, 0.8, 0.5).normalize());
         let proj = project(prep, &frame);
         let mut chosen = 1;
-        // At most 4×4: the sweep (docs/ACCURACY.md) found 4×4 tiles 11–14 % faster than 16×16
-        // with identical images on the Cornell boxes, and the mirror box's sparse tiles, which
+        // At most 4×4: the sweep (docs/ACCURACY.md) found 4×4 tiles 11–34 % faster than 16×16
+        // with identical images (Cornell boxes, fog-room), and the mirror box's sparse tiles, which
         // are allocated per tile a mirror projects into, 3.4× smaller (86 MB against 296 MB).
         for m in [4u32, 2, 1] {
             if !n.is_multiple_of(m) {
