@@ -26,7 +26,7 @@ use vlf_core::pathtrace::{self, PinholeCamera, PreparedScene, RenderSettings};
 use vlf_gpu::GpuContext;
 use vlf_gpu::render::{CameraView, Renderer};
 
-use crate::bake::bake_scene;
+use crate::bake::{bake_scene, resolve_params};
 use crate::batch::write_bytes_atomic;
 use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg, Rgb};
 use crate::memory::Budget;
@@ -167,7 +167,7 @@ impl Row {
 
 /// One bake of the grid: a preset plus explicit overrides.
 #[derive(Clone, Debug)]
-struct Point3 {
+struct GridPoint {
     label: String,
     preset: Option<QualityArg>,
     directions: Option<u32>,
@@ -177,7 +177,7 @@ struct Point3 {
     perturb: Option<u32>,
 }
 
-impl Point3 {
+impl GridPoint {
     fn preset(q: QualityArg, name: &str) -> Self {
         Self {
             label: name.into(),
@@ -221,40 +221,40 @@ impl Point3 {
 }
 
 /// The bakes of a grid, cheapest first (an interrupted sweep keeps the cheap points).
-fn plan(grid: GridArg, high: bool) -> Vec<Point3> {
+fn plan(grid: GridArg, high: bool) -> Vec<GridPoint> {
     let mut v = vec![
-        Point3::preset(QualityArg::Draft, "draft"),
-        Point3::grid(126, 32),
-        Point3::grid(126, 64),
-        Point3::grid(606, 32),
-        Point3::grid(606, 64),
-        Point3::preset(QualityArg::Auto, "auto"),
+        GridPoint::preset(QualityArg::Draft, "draft"),
+        GridPoint::grid(126, 32),
+        GridPoint::grid(126, 64),
+        GridPoint::grid(606, 32),
+        GridPoint::grid(606, 64),
+        GridPoint::preset(QualityArg::Auto, "auto"),
     ];
     if grid == GridArg::Full {
         for (l, n) in [(246, 32), (246, 64), (126, 128), (1126, 64), (606, 128)] {
-            v.push(Point3::grid(l, n));
+            v.push(GridPoint::grid(l, n));
         }
         for k in [1, 2, 3, 5] {
-            let mut p = Point3::grid(606, 64);
+            let mut p = GridPoint::grid(606, 64);
             p.label = format!("l=606 N=64 iterations={k}");
             p.iterations = Some(IterationsArg::Fixed(k));
             v.push(p);
         }
         for m in [4, 16] {
-            let mut p = Point3::grid(606, 64);
+            let mut p = GridPoint::grid(606, 64);
             p.label = format!("l=606 N=64 tile={m}");
             p.tile = Some(m);
             v.push(p);
         }
         for k in [4, 16] {
-            let mut p = Point3::grid(126, 64);
+            let mut p = GridPoint::grid(126, 64);
             p.label = format!("l=126 N=64 perturb={k}");
             p.perturb = Some(k);
             v.push(p);
         }
     }
     if high {
-        v.push(Point3::preset(QualityArg::High, "high"));
+        v.push(GridPoint::preset(QualityArg::High, "high"));
     }
     v
 }
@@ -386,17 +386,15 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
     view.for_path_tracer(&scene, w, h)
         .context("the sweep's viewpoint")?;
     let compute = open_device(device)?;
-    let render_ctx = match &compute {
-        Compute::Gpu(_) => None,
-        Compute::Cpu(_) => Some(
-            GpuContext::new(&Default::default())
-                .context("rendering the bakes needs a GPU adapter (lavapipe will do)")?,
-        ),
-    };
-    let ctx: &GpuContext = match (&compute, &render_ctx) {
-        (Compute::Gpu(c), _) => c,
-        (_, Some(c)) => c,
-        _ => unreachable!("one of the two is set"),
+    // Renders need an adapter even when the bakes run on the CPU.
+    let render_ctx;
+    let ctx: &GpuContext = match &compute {
+        Compute::Gpu(c) => c,
+        Compute::Cpu(_) => {
+            render_ctx = GpuContext::new(&Default::default())
+                .context("rendering the bakes needs a GPU adapter (lavapipe will do)")?;
+            &render_ctx
+        }
     };
     let budget = Budget::new(None, &compute, 1);
     let scene_name = args
@@ -539,7 +537,6 @@ fn radiosity(
     sky: Option<Rgb>,
 ) -> anyhow::Result<()> {
     use vlf_core::radiosity::{self, RadiosityError, RadiositySettings};
-    let base = vlf_core::bake::auto::choose(scene, vlf_core::bake::Quality::Auto).params;
     let mut points: Vec<(u32, u32, bool)> = Vec::new();
     for n in [32, 64] {
         for rays in [64, 256, 1024, 4096] {
@@ -549,13 +546,12 @@ fn radiosity(
     points.extend([(64, 16384, false), (128, 1024, false), (128, 4096, false)]);
     points.push((64, 1024, true));
     for (n, rays, gpu) in points {
-        let mut params = base.clone();
-        params.resolution = n;
-        params.tile = (1..=params.tile.min(n))
-            .rev()
-            .find(|t| n.is_multiple_of(*t))
-            .unwrap_or(1);
-        params.sky = sky.map_or(Vec3::ZERO, |s| Vec3::from(s.0));
+        // The atlas of `vlf-bake bake --resolution N` on this scene: same patches as the bakes.
+        let point = GridPoint {
+            resolution: Some(n),
+            ..GridPoint::preset(QualityArg::Auto, "radiosity")
+        };
+        let (params, _) = resolve_params(&point.args(sky), scene)?;
         let settings = RadiositySettings {
             rays_per_patch: rays,
             threshold: 1e-4,
