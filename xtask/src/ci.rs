@@ -6,6 +6,9 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
+/// The crate whose module graph `ci` checks for import cycles (`cargo xtask check-modules`).
+pub const LAYERED_CRATE: &str = "crates/vlf-core/src";
+
 /// Runs one step, echoing it and its duration; fails naming the step.
 pub fn step(name: &str, cmd: &mut Command) -> Result<()> {
     eprintln!("==> {name}: {cmd:?}");

@@ -4,6 +4,8 @@
 mod assets;
 mod chart;
 mod ci;
+mod lengths;
+mod modgraph;
 mod validate;
 
 use std::path::{Path, PathBuf};
@@ -13,14 +15,17 @@ use anyhow::{Result, bail};
 const USAGE: &str = "usage: cargo xtask <task>
 
 tasks:
-  ci            the whole test suite: rustfmt, clippy, all tests, asset checks (what .ci/run runs)
+  ci            the whole test suite: rustfmt, module layers, clippy, all tests, asset checks
+                (what .ci/run runs)
   demo          the main job on the bundled Cornell box
   bench [--quick]  bake benchmarks (release build) → docs/bench/bake.csv
   chart [--quick] [--redraw] [SCENE...]  speed against accuracy on the shared scenes: references,
                 `vlf-bake sweep`, SVG charts and summary → docs/bench/chart/
   assets        regenerate the Cornell box scenes under assets/
   check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
-  validate-gltf FILE...  run Khronos glTF-Validator on the given files";
+  validate-gltf FILE...  run Khronos glTF-Validator on the given files
+  check-modules  fail on an import cycle between vlf-core's modules; print their layers
+  check-lengths  fail on a non-test source file over 800 lines under crates/ and xtask/";
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -49,6 +54,13 @@ fn main() -> Result<()> {
                 bail!("{USAGE}");
             }
             validate::validate_gltf(&root, &files)?;
+        }
+        Some("check-modules") => {
+            print!("{}", modgraph::check(&root, Path::new(ci::LAYERED_CRATE))?)
+        }
+        Some("check-lengths") => {
+            let n = lengths::check(&root)?;
+            println!("{n} source files, none over {} lines", lengths::MAX_LINES);
         }
         Some("ci") => ci::ci(&root)?,
         Some("demo") => ci::demo(&root)?,
