@@ -1,9 +1,10 @@
 //! The GPU propagator against the CPU reference, and the physics checks on the GPU.
 
 use glam::{Vec3, Vec4};
+use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
 use vlf_tests::{gpu, repo_dir};
 

@@ -2,7 +2,8 @@
 //! solver of `vlf_core::radiosity`, on the diffuse Cornell box.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
+use vlf_core::bake::BakeScene;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, FormFactors, RadiositySettings};
 use vlf_tests::{gpu, shared_dir};
 

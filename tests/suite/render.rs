@@ -7,8 +7,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3, Vec4};
-use vlf_core::bake::{BakeParams, Iterations};
-use vlf_core::lightfield::LightField;
+use vlf_core::lightfield::{BakeParams, Iterations, LightField};
 use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{diffuse_radiance, visible_side};
 use vlf_gpu::render::targets::read_texture;

@@ -4,9 +4,9 @@
 //! and both encodings must render the light field they hold.
 
 use glam::Vec4;
-use vlf_core::bake::{BakeParams, Iterations};
-use vlf_core::format::encoding::f16_decode;
-use vlf_core::lightfield::{LightField, Radiance, RadianceEncoding};
+use vlf_core::lightfield::{
+    BakeParams, Iterations, LightField, Radiance, RadianceEncoding, encoding::f16_decode,
+};
 use vlf_gpu::readback::{read_buffer, storage_buffer};
 use vlf_gpu::render::final_radiance::{diffuse_radiance, visible_side};
 use vlf_gpu::render::upload::{ATLAS_WIDTH, radiance_texture};

@@ -5,9 +5,10 @@
 //! asserted on the CPU; the scenes are rebuilt here (the two test crates share no code).
 
 use glam::{Vec3, Vec4};
+use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
 use vlf_tests::gpu;
 

@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use serde::Serialize;
-use vlf_core::bake::{self, BakeParams, Iterations, Quality};
-use vlf_core::lightfield::BakeStats;
+use vlf_core::bake::{self, Quality};
+use vlf_core::lightfield::{BakeParams, BakeStats, Iterations};
 
 use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg};
 use crate::memory::{self, Budget};
@@ -207,7 +207,7 @@ pub fn bake_scene(
         adapter: adapter.clone(),
         ..Default::default()
     };
-    stats.set_energy(&out.energy);
+    out.energy.copy_into(&mut stats);
     let t = Instant::now();
     let iterations = out.iterations;
     let energy = out.energy.clone();

@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant, SystemTime};
 
 use serde::Serialize;
-use vlf_core::bake::BakeParams;
+use vlf_core::lightfield::BakeParams;
 
 use crate::ExitCode;
 use crate::bake::{BakeReport, bake_scene, params_from_args, resolve_params};

@@ -39,7 +39,7 @@ pub fn exit_code(err: &anyhow::Error) -> ExitCode {
     for cause in err.chain() {
         if cause.is::<vlf_core::scene::SceneError>()
             || cause.is::<vlf_core::format::FormatError>()
-            || cause.is::<vlf_core::bake::ParamsError>()
+            || cause.is::<vlf_core::lightfield::ParamsError>()
             || cause.is::<vlf_core::image::ImageError>()
             || cause.is::<vlf_core::pathtrace::PathTraceError>()
         {

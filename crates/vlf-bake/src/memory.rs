@@ -50,10 +50,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use serde::Serialize;
-use vlf_core::bake::reference::{self, SpecularSetup};
-use vlf_core::bake::tiles::ReflectJob;
-use vlf_core::bake::{BakeParams, BakeScene};
+use vlf_core::bake::BakeScene;
+use vlf_core::bake::reference::{self, ReflectJob, SpecularSetup};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::BakeParams;
 use vlf_core::psf::PsfGrid;
 use vlf_core::scene::Scene;
 use vlf_gpu::bake::{ChunkBytes, Chunker};
@@ -772,7 +772,7 @@ pub fn plan_prepared(
         box_cells_max = box_cells_max.max(box_cells);
     }
 
-    let enc = vlf_core::format::DEFAULT_ENCODING.bytes_per_texel() as u64;
+    let enc = vlf_core::lightfield::DEFAULT_ENCODING.bytes_per_texel() as u64;
     let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
     let job_bytes = size_of::<ReflectJob>() as u64;
     let texture_texels: u64 = scene.textures.iter().map(|t| t.pixels.len() as u64).sum();

@@ -500,8 +500,8 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
             texel_scale: pr.texel_scale,
             perturb: pr.perturb,
             iterations_rule: match pr.iterations {
-                vlf_core::bake::Iterations::Fixed(k) => k.to_string(),
-                vlf_core::bake::Iterations::Converge { threshold, .. } => {
+                vlf_core::lightfield::Iterations::Fixed(k) => k.to_string(),
+                vlf_core::lightfield::Iterations::Converge { threshold, .. } => {
                     format!("auto:{threshold:e}")
                 }
             },
@@ -577,7 +577,7 @@ fn radiosity(
         };
         let stored = vlf_core::format::to_bytes(
             &lf,
-            vlf_core::format::DEFAULT_ENCODING,
+            vlf_core::lightfield::DEFAULT_ENCODING,
             Path::new("radiosity"),
         )?
         .len() as u64;

@@ -1,7 +1,8 @@
 //! Quick CPU-reference bake of a scene, printing timing and energy (development aid).
 //! `cargo run -p vlf-core --example cpu_bake -- SCENE [directions] [resolution] [iterations]`
-use vlf_core::bake::{BakeParams, BakeScene, Iterations, reference};
+use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 
 fn main() {
     env_logger::init();

@@ -20,10 +20,11 @@
 use std::path::Path;
 use std::time::Instant;
 
-use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle};
 use vlf_core::directions::DirectionSet;
-use vlf_core::format::{self, RadianceEncoding};
-use vlf_core::lightfield::{BakeStats, LightField, Radiance};
+use vlf_core::format;
+use vlf_core::lightfield::{
+    BakeFace, BakeParams, BakeStats, BakeTriangle, LightField, Radiance, RadianceEncoding,
+};
 use vlf_core::scene::{SceneSummary, Similarity};
 
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {

@@ -13,7 +13,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::Vec4;
-use vlf_core::bake::{self, BakeScene, Iterations, Quality};
+use vlf_core::bake::{self, BakeScene, Quality};
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, RadiositySettings};
 
 fn rel_l2(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
@@ -133,7 +134,7 @@ fn main() {
     );
 
     if vs_vlf {
-        let params = bake::BakeParams {
+        let params = BakeParams {
             iterations: Iterations::Converge {
                 threshold: 1e-4,
                 max: 200,

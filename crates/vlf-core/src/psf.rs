@@ -102,21 +102,6 @@ impl PsfFrame {
     }
 }
 
-impl DirectionSet {
-    /// The PSF frame of direction `i` (`w = ω_i`). Panics if `i >= len()`.
-    pub fn psf_frame(&self, i: usize) -> PsfFrame {
-        PsfFrame::new(self.direction(i))
-    }
-
-    /// The PSF frames of all directions, indexed by direction.
-    pub fn psf_frames(&self) -> Vec<PsfFrame> {
-        self.directions()
-            .iter()
-            .map(|&w| PsfFrame::new(w))
-            .collect()
-    }
-}
-
 /// Largest supported PSF resolution `n` (cells per side).
 pub const MAX_PSF_RESOLUTION: u32 = 4096;
 
@@ -247,6 +232,25 @@ pub fn twist_angle(i: usize) -> f32 {
     ((i as f64 * GOLDEN) % std::f64::consts::TAU) as f32
 }
 
+/// The PSF frame of fixed direction `i`: the canonical frame twisted by [`twist_angle`]`(i)`.
+/// Everything that addresses a fixed direction's ray grid (propagation, mirror tiles, the
+/// renderer's lookup) uses this frame. Panics if `i >= set.len()`.
+pub fn fixed_frame(set: &DirectionSet, i: usize) -> PsfFrame {
+    PsfFrame::new(set.direction(i)).twisted(twist_angle(i))
+}
+
+/// [`fixed_frame`] of every direction of the set, indexed by direction.
+pub fn fixed_frames(set: &DirectionSet) -> Vec<PsfFrame> {
+    (0..set.len()).map(|j| fixed_frame(set, j)).collect()
+}
+
+/// The cell of PSF point `(a, b)` in an `n`-grid, clamped (same f32 arithmetic as the shaders).
+pub fn cell_at(a: f32, b: f32, n: u32) -> (u32, u32) {
+    let nf = n as f32;
+    let c = |x: f32| ((x + 1.0) * 0.5 * nf).floor().clamp(0.0, nf - 1.0) as u32;
+    (c(a), c(b))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,11 +285,11 @@ mod tests {
     #[test]
     fn frames_of_direction_set() {
         let set = DirectionSet::with_frequency(10).unwrap();
-        let frames = set.psf_frames();
+        let frames = fixed_frames(&set);
         assert_eq!(frames.len(), set.len());
         let mut rng = 0x2545_f491_4f6c_dd1du64;
         for (i, f) in frames.iter().enumerate() {
-            assert_eq!(*f, set.psf_frame(i));
+            assert_eq!(*f, fixed_frame(&set, i));
             assert_eq!(f.w, set.direction(i));
             check_frame(f);
             let m = f.matrix();

@@ -6,13 +6,16 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
-use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle, Iterations};
 use vlf_core::directions::DirectionSet;
 use vlf_core::format::disk::{
     self, FileFace, FileHeader, FileTriangle, PREAMBLE_LEN, Preamble, SectionEntry,
 };
-use vlf_core::format::{self, FormatError, RadianceEncoding, hash};
-use vlf_core::lightfield::{BakeStats, LightField, NonFiniteRadiance, Radiance};
+use vlf_core::format::{self, FormatError};
+use vlf_core::hash;
+use vlf_core::lightfield::{
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, Iterations, LightField,
+    NonFiniteRadiance, Radiance, RadianceEncoding,
+};
 use vlf_core::scene::{Camera, SceneSummary, Similarity};
 
 // ----- fixtures -----------------------------------------------------------------------------
@@ -67,7 +70,7 @@ fn synthetic_values(texels: u32, seed: u64) -> Vec<[f32; 4]> {
 /// A small synthetic light field: `faces` square-ish faces of `w × h` texels per side, two
 /// triangles each, [`synthetic_values`] radiance in the default encoding, two cameras.
 fn synthetic(faces: u32, w: u32, h: u32, seed: u64) -> LightField {
-    synthetic_in(faces, w, h, seed, format::DEFAULT_ENCODING)
+    synthetic_in(faces, w, h, seed, DEFAULT_ENCODING)
 }
 
 /// [`synthetic`] with the radiance encoded as `enc`.
@@ -305,9 +308,9 @@ fn round_trip_is_bit_exact_for_both_encodings() {
     format::write_atomic(&path, &lf).unwrap();
     assert_eq!(
         format::describe(&path).unwrap().radiance_encoding,
-        format::DEFAULT_ENCODING.name()
+        DEFAULT_ENCODING.name()
     );
-    assert_eq!(format::DEFAULT_ENCODING, RadianceEncoding::RgbF16);
+    assert_eq!(DEFAULT_ENCODING, RadianceEncoding::RgbF16);
 }
 
 #[test]
@@ -774,7 +777,7 @@ fn atomic_write_replaces_and_leaves_no_temp_file() {
     assert_eq!(file_names(&dir), ["scene.vlf"]);
     assert_bit_exact(
         &format::read(&path).unwrap(),
-        &expected(&other, format::DEFAULT_ENCODING),
+        &expected(&other, DEFAULT_ENCODING),
     );
 }
 
@@ -865,8 +868,7 @@ fn tiny() -> LightField {
     lf.cameras.clear();
     lf.scene.source = "t".into();
     lf.stats = BakeStats::default();
-    lf.radiance =
-        Radiance::from_f32(&[[1.0, 0.5, 0.25, 0.0], [0.0; 4]], format::DEFAULT_ENCODING).unwrap();
+    lf.radiance = Radiance::from_f32(&[[1.0, 0.5, 0.25, 0.0], [0.0; 4]], DEFAULT_ENCODING).unwrap();
     lf
 }
 
@@ -1118,7 +1120,7 @@ fn mirror_tiles_round_trip_and_reject_corruption() {
         "tiles carry light"
     );
     // The bake keeps atlas and tiles in the default encoding; both sections store them as is.
-    let enc = format::DEFAULT_ENCODING;
+    let enc = DEFAULT_ENCODING;
     assert_eq!(tiles.radiance.encoding(), enc);
     let bytes = bytes_of(&lf, enc);
     let back = format::read_bytes(&bytes, Path::new("mem.vlf")).unwrap();

@@ -17,11 +17,14 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use glam::{Quat, Vec3};
-use vlf_core::bake::{BakeFace, BakeParams, BakeTriangle};
 use vlf_core::directions::DirectionSet;
+use vlf_core::format;
 use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEntry};
-use vlf_core::format::{self, RadianceEncoding, hash};
-use vlf_core::lightfield::{BakeStats, LightField, Radiance};
+use vlf_core::hash;
+use vlf_core::lightfield::{
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, LightField, Radiance,
+    RadianceEncoding,
+};
 use vlf_core::scene::{Camera, SceneSummary, Similarity};
 
 /// xorshift64* — deterministic, dependency-free.
@@ -150,7 +153,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
         cameras: if cameras { vec![camera] } else { vec![] },
         triangles: tris,
         faces: fs,
-        radiance: Radiance::from_f32(&radiance, format::DEFAULT_ENCODING).unwrap(),
+        radiance: Radiance::from_f32(&radiance, DEFAULT_ENCODING).unwrap(),
         tiles: None,
         stats: BakeStats {
             iterations: 2,

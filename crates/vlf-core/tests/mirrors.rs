@@ -1,9 +1,10 @@
 //! Mirrors and mixed surfaces in the CPU reference propagator against analytic answers.
 
 use glam::{Vec3, Vec4};
+use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
 
 fn mirror(b: &mut SceneBuilder, reflectance: f32) -> u32 {
@@ -74,10 +75,10 @@ fn mirror_facing_uniform_emitter_reflects_rho_times_emission() {
         if up.y < 40f32.to_radians().cos() {
             continue;
         }
-        let frame = reference::fixed_frame(&set, j as usize);
+        let frame = vlf_core::psf::fixed_frame(&set, j as usize);
         // The ray through the mirror's centre.
         let q = frame.to_psf(scene.to_vlf.apply(Vec3::ZERO));
-        let (ci, cj) = vlf_core::bake::tiles::cell_at(q.x, q.y, index.n);
+        let (ci, cj) = vlf_core::psf::cell_at(q.x, q.y, index.n);
         let i = index
             .value_index(mirror_face, j, sense, ci, cj)
             .expect("centre cell stored");

@@ -2,8 +2,9 @@
 //! (The GPU propagator is checked against this reference in `tests/suite`.)
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations, reference};
+use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::SceneBuilder;
 
 fn small(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {

@@ -5,8 +5,9 @@
 use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations, reference};
+use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, FormFactors, RadiosityError, RadiositySettings};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
 

@@ -13,10 +13,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::{DVec3, Vec3, Vec4};
+use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations};
 use vlf_core::directions::DirectionSet;
-use vlf_core::psf::{PsfFrame, PsfGrid};
+use vlf_core::lightfield::{BakeParams, Iterations};
+use vlf_core::psf::{PsfFrame, PsfGrid, fixed_frame};
 use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
 
 /// `emitted + injected = absorbed + escaped + unshot` to this fraction: twice the Cornell-box
@@ -359,9 +360,7 @@ fn cyclic_overlaps_and_interpenetration_give_exact_depth_lists() {
     let set = DirectionSet::at_least(p.directions).unwrap();
     let grid = PsfGrid::new(p.resolution, p.tile).unwrap();
     // Every fixed direction and one perturbed copy of each (arbitrary frames).
-    let mut frames: Vec<PsfFrame> = (0..set.len())
-        .map(|i| reference::fixed_frame(&set, i))
-        .collect();
+    let mut frames: Vec<PsfFrame> = (0..set.len()).map(|i| fixed_frame(&set, i)).collect();
     let jittered = BakeParams {
         perturb: 1,
         ..p.clone()
@@ -947,7 +946,7 @@ fn coplanar_decal_is_deterministic_and_balanced() {
     let grid = PsfGrid::new(p.resolution, p.tile).unwrap();
     let (mut decal_on_top, mut floor_on_top, mut tied) = (0, 0, 0);
     for i in 0..set.len() {
-        let frame = reference::fixed_frame(&set, i);
+        let frame = fixed_frame(&set, i);
         let down = scene.to_vlf.apply_vector(Vec3::Y).dot(frame.w) < 0.0;
         let lists = reference::build_cell_lists(&prep, &grid, &frame);
         for c in 0..lists.start.len() - 1 {
@@ -1002,7 +1001,7 @@ fn needle_triangles_bake_without_cracks() {
     let grid = PsfGrid::new(p.resolution, p.tile).unwrap();
     let (mut crossing, mut missed) = (0, 0);
     for i in 0..set.len() {
-        let frame = reference::fixed_frame(&set, i);
+        let frame = fixed_frame(&set, i);
         let lists = reference::build_cell_lists(&prep, &grid, &frame);
         for (c, (want, amb)) in brute_force_lists(&prep, &grid, &frame).iter().enumerate() {
             if !*amb && want.contains(&wall) {

@@ -13,8 +13,9 @@ use std::io::Write;
 use std::time::Instant;
 
 use glam::Vec3;
-use vlf_core::bake::{BakeParams, BakeScene, Iterations, Quality, reference};
+use vlf_core::bake::{BakeScene, Quality, reference};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
 
 fn room_with_boxes(k: u32) -> Scene {

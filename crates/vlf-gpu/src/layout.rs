@@ -254,7 +254,7 @@ pub struct PatchTerm {
 
 /// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
 pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
-    use vlf_core::bake::{BakeFace, BakeTriangle};
+    use vlf_core::lightfield::{BakeFace, BakeTriangle};
     type Entry = (&'static str, &'static str, usize, usize);
     fn entry<T>(name: &'static str, file: &'static str) -> Entry {
         let (size, align) = (std::mem::size_of::<T>(), std::mem::align_of::<T>());

@@ -14,9 +14,9 @@
 
 use std::time::Instant;
 
-use vlf_core::bake::{BakeParams, BakeScene};
+use vlf_core::bake::BakeScene;
 use vlf_core::directions::DirectionSet;
-use vlf_core::lightfield::LightField;
+use vlf_core::lightfield::{BakeParams, LightField};
 use vlf_core::radiosity::{
     self, FormFactors, IterationCallback, RadiosityError, RadiosityReport, RadiositySettings,
     Solution,

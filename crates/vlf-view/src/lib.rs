@@ -151,12 +151,12 @@ pub fn load(cli: &Cli) -> anyhow::Result<LightField> {
 pub fn bake_preview(scene: &Path) -> anyhow::Result<LightField> {
     let t = Instant::now();
     let s = vlf_core::scene::load(scene)?;
-    let params = vlf_core::bake::BakeParams {
+    let params = vlf_core::lightfield::BakeParams {
         directions: 46,
         resolution: 32,
         tile: 8,
-        iterations: vlf_core::bake::Iterations::Fixed(2),
-        ..vlf_core::bake::BakeParams::paper()
+        iterations: vlf_core::lightfield::Iterations::Fixed(2),
+        ..vlf_core::lightfield::BakeParams::paper()
     };
     let lf = vlf_core::bake::bake_cpu(&s, &params)
         .with_context(|| format!("preview bake of {}", scene.display()))?;

@@ -33,12 +33,12 @@ fn cornell_vlf() -> &'static Path {
     static FILE: OnceLock<PathBuf> = OnceLock::new();
     FILE.get_or_init(|| {
         let scene = vlf_core::scene::load(&cornell_gltf()).unwrap();
-        let params = vlf_core::bake::BakeParams {
+        let params = vlf_core::lightfield::BakeParams {
             directions: 46,
             resolution: 32,
             tile: 8,
-            iterations: vlf_core::bake::Iterations::Fixed(2),
-            ..vlf_core::bake::BakeParams::paper()
+            iterations: vlf_core::lightfield::Iterations::Fixed(2),
+            ..vlf_core::lightfield::BakeParams::paper()
         };
         let lf = vlf_core::bake::bake_cpu(&scene, &params).unwrap();
         let path = scratch("vlf").join("cornell.vlf");

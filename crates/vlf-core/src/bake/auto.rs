@@ -22,10 +22,11 @@
 use glam::Vec3;
 use serde::Serialize;
 
-use super::params::{BakeParams, Iterations, Quality};
 use super::prep::BakeScene;
+use super::quality::Quality;
 use super::reference::{bin_triangles, build_cell_lists, project};
 use crate::directions::DirectionSet;
+use crate::lightfield::{BakeParams, Iterations};
 use crate::psf::{PsfFrame, PsfGrid};
 use crate::scene::Scene;
 

@@ -1,22 +1,22 @@
-//! Baking: parameters, the prepared (VLF-space, GPU-ready) scene, the diffuse atlas, and the
-//! CPU reference propagator. The GPU propagator in `vlf-gpu` consumes exactly the same prepared
+//! Baking: quality presets and the scene-driven choice of parameters, the prepared (VLF-space,
+//! GPU-ready) scene, the diffuse atlas, and the CPU reference propagator. The GPU propagator in `vlf-gpu` consumes exactly the same prepared
 //! arrays ([`prep::BakeScene`]) and must agree with [`reference`].
 //!
 //! See `docs/PROPAGATION.md` for the algorithm and why it departs from the paper's painter's
 //! sort (exact per-ray depth lists) and float-atomic scatter (per-texel gather).
 
 pub mod auto;
-pub mod params;
 pub mod prep;
+pub mod quality;
 pub mod reference;
-pub mod tiles;
 
-pub use params::{BakeParams, Iterations, ParamsError, Quality};
-pub use prep::{BakeFace, BakeScene, BakeTriangle};
+pub use prep::BakeScene;
+pub use quality::Quality;
 
 use crate::directions::DirectionSet;
-use crate::format::DEFAULT_ENCODING;
-use crate::lightfield::{BakeStats, LightField, MirrorTiles, Radiance};
+use crate::lightfield::{
+    BakeParams, BakeStats, DEFAULT_ENCODING, LightField, MirrorTiles, ParamsError, Radiance,
+};
 use crate::scene::Scene;
 
 /// Errors of a bake.
@@ -35,7 +35,7 @@ pub enum BakeError {
 /// (shared by the CPU and GPU paths). Uncovered texels are dilated so bilinear filtering at
 /// polygon borders reads covered neighbours instead of black. The radiance (atlas and mirror
 /// tiles) is then encoded once, in the file's default encoding
-/// ([`crate::format::DEFAULT_ENCODING`]): that is how the light field is kept in memory,
+/// ([`DEFAULT_ENCODING`]): that is how the light field is kept in memory,
 /// written and rendered.
 ///
 /// No encoding stores NaN or infinity. Should the propagation produce one (a bug or an
@@ -150,7 +150,7 @@ pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeEr
         adapter: "CPU reference".into(),
         ..Default::default()
     };
-    stats.set_energy(&out.energy);
+    out.energy.copy_into(&mut stats);
     try_assemble(scene, &prep, params, directions, out, stats)
 }
 

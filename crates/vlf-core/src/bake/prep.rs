@@ -7,80 +7,13 @@
 //! (0 for texels outside the polygon) and albedo/emission are sampled at the covered part's
 //! centroid, so energy sums (Σ B·area) are exact for the polygon.
 
-use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
 
-use super::params::{BakeParams, ParamsError};
-use crate::scene::{MaterialKind, Scene, Texture};
-
-/// A triangle in VLF coordinates (48 bytes; mirrors WGSL `BakeTriangle`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct BakeTriangle {
-    pub p0: [f32; 3],
-    /// Index into [`BakeScene::faces`].
-    pub face: u32,
-    pub p1: [f32; 3],
-    pub _pad0: u32,
-    pub p2: [f32; 3],
-    pub _pad1: u32,
-}
-
-/// Face kinds stored in [`BakeFace::kind`].
-pub const FACE_DIFFUSE: u32 = 0;
-pub const FACE_MIRROR: u32 = 1;
-pub const FACE_MIXED: u32 = 2;
-
-/// A planar face with its atlas chart, in VLF coordinates (80 bytes; mirrors WGSL `BakeFace`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct BakeFace {
-    /// Unit front normal.
-    pub normal: [f32; 3],
-    /// Plane: `normal · p = offset`.
-    pub offset: f32,
-    /// Chart origin on the plane.
-    pub origin: [f32; 3],
-    /// Texel edge length (VLF units).
-    pub texel_size: f32,
-    /// Chart axis of texel columns.
-    pub u: [f32; 3],
-    /// Texel columns.
-    pub width: u32,
-    /// Chart axis of texel rows.
-    pub v: [f32; 3],
-    /// Texel rows.
-    pub height: u32,
-    /// Index of the first texel of side 0; side 1 starts at `texel_base + width × height`.
-    pub texel_base: u32,
-    /// [`FACE_DIFFUSE`], [`FACE_MIRROR`] or [`FACE_MIXED`].
-    pub kind: u32,
-    /// Mirror weight (0 for diffuse faces).
-    pub specular: f32,
-    pub _pad: u32,
-}
-
-impl BakeFace {
-    pub fn normal(&self) -> Vec3 {
-        Vec3::from(self.normal)
-    }
-
-    /// Texels per side.
-    pub fn texels_per_side(&self) -> u32 {
-        self.width * self.height
-    }
-
-    /// Index of the texel containing plane point `p` on `side` (clamped to the chart).
-    pub fn texel_at(&self, p: Vec3, side: u32) -> u32 {
-        let d = p - Vec3::from(self.origin);
-        let x = (d.dot(Vec3::from(self.u)) / self.texel_size).floor();
-        let y = (d.dot(Vec3::from(self.v)) / self.texel_size).floor();
-        let x = (x.max(0.0) as u32).min(self.width - 1);
-        let y = (y.max(0.0) as u32).min(self.height - 1);
-        self.texel_base + side * self.texels_per_side() + y * self.width + x
-    }
-}
+use crate::lightfield::{
+    BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
+};
+use crate::scene::{MaterialKind, Scene};
 
 /// Summary of a prepared scene (for logs and `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -227,11 +160,11 @@ impl BakeScene {
                 let uv = best[i].1;
                 let mut base = mat.diffuse_albedo();
                 if let Some(t) = mat.base_color_texture {
-                    base *= sample(&scene.textures[t.index as usize], uv).truncate();
+                    base *= scene.textures[t.index as usize].bilinear(uv).truncate();
                 }
                 let mut emit = mat.emission;
                 if let Some(t) = mat.emissive_texture {
-                    emit *= sample(&scene.textures[t.index as usize], uv).truncate();
+                    emit *= scene.textures[t.index as usize].bilinear(uv).truncate();
                 }
                 let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32;
                 for side in 0..2 {
@@ -369,26 +302,6 @@ fn uv_at(q: &[Vec2; 3], uv: &[Vec2; 3], c: Vec2) -> Vec2 {
     let b1 = d.perp_dot(e2) / det;
     let b2 = e1.perp_dot(d) / det;
     uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
-}
-
-/// Bilinear texture sample with the texture's wrap modes (glTF uv: v down the image).
-pub fn sample(tex: &Texture, uv: Vec2) -> Vec4 {
-    if tex.width == 0 || tex.height == 0 || tex.pixels.is_empty() || !uv.is_finite() {
-        return Vec4::ONE;
-    }
-    let x = uv.x * tex.width as f32 - 0.5;
-    let y = uv.y * tex.height as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let texel = |i: i64, j: i64| {
-        let i = tex.wrap_s.wrap(i, tex.width);
-        let j = tex.wrap_t.wrap(j, tex.height);
-        tex.pixels[(j as usize) * tex.width as usize + i as usize]
-    };
-    let (i, j) = (x0 as i64, y0 as i64);
-    let top = texel(i, j).lerp(texel(i + 1, j), fx);
-    let bottom = texel(i, j + 1).lerp(texel(i + 1, j + 1), fx);
-    top.lerp(bottom, fy)
 }
 
 #[cfg(test)]

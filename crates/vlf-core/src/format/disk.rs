@@ -9,9 +9,8 @@
 use bytemuck::{Pod, Zeroable};
 use serde::{Deserialize, Serialize};
 
-use crate::bake::{BakeFace, BakeParams, BakeTriangle, Iterations};
 use crate::directions::{DirectionScheme, DirectionSet, DirectionSetDesc};
-use crate::lightfield::BakeStats;
+use crate::lightfield::{BakeFace, BakeParams, BakeStats, BakeTriangle, Iterations};
 use crate::scene::{Camera, SceneSummary, Similarity};
 
 /// The first 8 bytes of every `.vlf` file.
@@ -75,7 +74,7 @@ pub fn header_checksum(preamble: &Preamble, header: &[u8]) -> u64 {
     let mut bytes = Vec::with_capacity(PREAMBLE_HASHED_LEN + header.len());
     bytes.extend_from_slice(&preamble.to_bytes()[..PREAMBLE_HASHED_LEN]);
     bytes.extend_from_slice(header);
-    super::hash::xxh64(&bytes, 0)
+    crate::hash::xxh64(&bytes, 0)
 }
 
 /// The bincode configuration of the header: bincode 2 "standard" (little-endian, variable-length
@@ -115,7 +114,7 @@ pub struct FileHeader {
     pub scene: FileSceneSummary,
     pub cameras: Vec<FileCamera>,
     pub stats: FileStats,
-    /// [`super::RadianceEncoding::id`] of the `radiance` section.
+    /// [`RadianceEncoding::id`](crate::lightfield::RadianceEncoding::id) of the `radiance` section.
     pub radiance_encoding: u32,
     /// Number of atlas texels (elements of the `radiance` section).
     pub texels: u64,

@@ -6,9 +6,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::disk::{self, FileHeader, Preamble};
-use super::encoding::RadianceEncoding;
-use crate::bake::{BakeParams, Iterations};
-use crate::lightfield::BakeStats;
+use crate::lightfield::{BakeParams, BakeStats, Iterations, RadianceEncoding};
 use crate::scene::{SceneSummary, Similarity};
 
 /// What [`super::describe`] reports.

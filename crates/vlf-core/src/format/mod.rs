@@ -10,17 +10,14 @@
 //!     "radiance" (one texel per atlas texel, RGB9E5 or half-float RGB)
 //! ```
 //!
-//! Every section carries a checksum (block-wise XXH64, see [`hash`]) and the header one of its
+//! Every section carries a checksum (block-wise XXH64, see [`crate::hash`]) and the header one of its
 //! own. [`write_atomic`] never leaves a partial file at the target; [`read`] validates every
 //! length against the real file size before allocating and rejects malformed content with an
 //! error naming the file last. The full byte layout, versioning policy and encoding
 //! measurements are in `docs/FORMAT.md`.
 
 pub mod disk;
-pub mod encoding;
-pub mod hash;
 mod info;
-pub(crate) mod parallel;
 mod tiles;
 
 use std::borrow::Cow;
@@ -31,16 +28,17 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use bytemuck::Pod;
 
-use crate::bake::prep::FACE_MIXED;
-use crate::bake::{BakeFace, BakeParams, BakeTriangle};
 use crate::directions::DirectionSet;
-use crate::lightfield::{LightField, MirrorTiles, Radiance};
+use crate::lightfield::{
+    BakeFace, BakeParams, BakeTriangle, DEFAULT_ENCODING, FACE_MIXED, LightField, MirrorTiles,
+    Radiance, RadianceEncoding,
+};
+use crate::{hash, parallel};
 use disk::{
     FileCamera, FileDirections, FileFace, FileHeader, FileParams, FileSceneSummary, FileStats,
     FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble, SECTION_ALIGN,
     SectionEntry, VERSION,
 };
-pub use encoding::{DEFAULT_ENCODING, RadianceEncoding};
 pub use info::{FileInfo, MemoryInfo, SectionInfo};
 
 /// A `.vlf` file cannot be written or read. Every message ends with the file's path.

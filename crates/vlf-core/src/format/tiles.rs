@@ -5,7 +5,8 @@
 //! `tile_ids`, `coverage`. Every count is checked against the section's length before anything
 //! is allocated, and every index against what it indexes.
 
-use crate::bake::tiles::{TileIndex, words_per_slot};
+use crate::lightfield::TileIndex;
+use crate::lightfield::tiles::words_per_slot;
 
 const HEADER_WORDS: usize = 8;
 

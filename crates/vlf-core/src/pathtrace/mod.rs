@@ -277,7 +277,7 @@ impl<'a> PreparedScene<'a> {
 
     fn texture(&self, index: Option<u32>, uv: Vec2) -> Vec3 {
         match index.and_then(|i| self.scene.textures.get(i as usize)) {
-            Some(t) => crate::bake::prep::sample(t, uv).truncate(),
+            Some(t) => t.bilinear(uv).truncate(),
             None => Vec3::ONE,
         }
     }

@@ -15,6 +15,7 @@ use glam::{Vec2, Vec3, Vec4};
 use super::{RadiosityError, RadiositySettings, non_diffuse_faces};
 use crate::bake::BakeScene;
 use crate::bake::reference::{SplitMix64, texel_faces};
+use crate::lightfield::BakeFace;
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{cosine_hemisphere, to_world};
 use crate::pathtrace::{Bvh, NONE, Ray, RtTriangle};
@@ -352,7 +353,7 @@ fn patch_row(ctx: &Ctx, p: usize) -> Row {
 
 /// The covered texel of face `f`, side `side`, containing plane point `p`, or the nearest
 /// covered one within two texels (hits that round just outside the polygon's texels).
-fn covered_texel(prep: &BakeScene, f: &crate::bake::BakeFace, p: Vec3, side: u32) -> Option<u32> {
+fn covered_texel(prep: &BakeScene, f: &BakeFace, p: Vec3, side: u32) -> Option<u32> {
     let t = f.texel_at(p, side);
     if prep.texel_area[t as usize] > 0.0 {
         return Some(t);

@@ -34,9 +34,9 @@ use std::time::Instant;
 use glam::Vec4;
 use serde::Serialize;
 
-use crate::bake::{self, BakeParams, BakeScene, ParamsError, prep::FACE_DIFFUSE, reference};
+use crate::bake::{self, BakeScene, reference};
 use crate::directions::{DirectionError, DirectionSet};
-use crate::lightfield::{BakeStats, LightField};
+use crate::lightfield::{BakeParams, BakeStats, FACE_DIFFUSE, LightField, ParamsError};
 use crate::scene::Scene;
 
 /// What controls a radiosity solution. `Default` gives the values used in `docs/RADIOSITY.md`.
@@ -200,7 +200,7 @@ pub fn to_light_field(
         adapter: "matrix radiosity".into(),
         ..Default::default()
     };
-    stats.set_energy(&propagated.energy);
+    propagated.energy.copy_into(&mut stats);
     bake::assemble(scene, prep, params, directions, propagated, stats)
 }
 

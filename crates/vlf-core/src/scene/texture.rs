@@ -101,6 +101,28 @@ impl Texture {
         }
     }
 
+    /// Bilinear sample with the texture's wrap modes, whatever its filter mode, in f32 (glTF
+    /// uv: v down the image): what the bake and the path tracer read. An empty texture or a
+    /// non-finite uv reads 1.
+    pub fn bilinear(&self, uv: Vec2) -> Vec4 {
+        if self.width == 0 || self.height == 0 || self.pixels.is_empty() || !uv.is_finite() {
+            return Vec4::ONE;
+        }
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let texel = |i: i64, j: i64| {
+            let i = self.wrap_s.wrap(i, self.width);
+            let j = self.wrap_t.wrap(j, self.height);
+            self.pixels[(j as usize) * self.width as usize + i as usize]
+        };
+        let (i, j) = (x0 as i64, y0 as i64);
+        let top = texel(i, j).lerp(texel(i + 1, j), fx);
+        let bottom = texel(i, j + 1).lerp(texel(i + 1, j + 1), fx);
+        top.lerp(bottom, fy)
+    }
+
     /// Mean texel value (e.g. for an average albedo or emission).
     pub fn mean(&self) -> Vec4 {
         if self.pixels.is_empty() {

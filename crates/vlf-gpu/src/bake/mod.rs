@@ -17,12 +17,12 @@ mod interface;
 mod reflect;
 
 use glam::Vec4;
+use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{
     self, EnergyStats, Propagated, SpecularSetup, TexelAccum, TransportDir, bin_triangles, project,
 };
-use vlf_core::bake::tiles;
-use vlf_core::bake::{BakeParams, BakeScene};
 use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::{BakeParams, tiles};
 use vlf_core::psf::PsfGrid;
 use wgpu::util::DeviceExt;
 

@@ -28,8 +28,7 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use vlf_core::bake::BakeFace;
-use vlf_core::lightfield::Radiance;
+use vlf_core::lightfield::{BakeFace, Radiance};
 
 use super::targets::{RADIANCE_FORMAT, Targets};
 use super::upload::GpuLightField;

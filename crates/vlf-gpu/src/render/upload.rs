@@ -25,13 +25,12 @@
 //!   - tile words (`Rgba32Uint`, [`ATLAS_WIDTH`] wide, one u32 per *channel*, i.e. word `k` is
 //!     channel `k % 4` of texel `k / 4`): a header `[l, m, n, face_slot_off, index_start_off,
 //!     tile_ids_off, coverage_off, words_per_slot]`, then the packed arrays of
-//!     `vlf_core::bake::tiles::TileIndex` at those offsets;
+//!     `vlf_core::lightfield::TileIndex` at those offsets;
 //!   - tile values ([`ATLAS_WIDTH`] wide, in the atlas's texture format): `MirrorTiles::radiance`
 //!     (1-texel dummy without tiles);
 //!   - frames (`Rgba32Float`, 2 texels per fixed direction: u, v of its twisted PSF frame).
 
-use vlf_core::bake::{BakeFace, BakeTriangle};
-use vlf_core::lightfield::{LightField, Radiance, RadianceEncoding};
+use vlf_core::lightfield::{BakeFace, BakeTriangle, LightField, Radiance, RadianceEncoding};
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
@@ -176,10 +175,10 @@ impl GpuLightField {
                     o1,
                     o2,
                     o3,
-                    vlf_core::bake::tiles::words_per_slot(ix.m) as u32,
+                    vlf_core::lightfield::tiles::words_per_slot(ix.m) as u32,
                 ]);
                 w.resize(w.len().next_multiple_of(4), 0);
-                let frames: Vec<[f32; 4]> = vlf_core::bake::tiles::fixed_frames(&lf.directions)
+                let frames: Vec<[f32; 4]> = vlf_core::psf::fixed_frames(&lf.directions)
                     .iter()
                     .flat_map(|f| [f.u.extend(0.0).to_array(), f.v.extend(0.0).to_array()])
                     .collect();

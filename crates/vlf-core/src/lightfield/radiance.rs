@@ -1,92 +1,10 @@
-//! The baked light field in memory: what the baker produces, the file stores and the viewer
-//! renders. Radiance is kept in its stored encoding ([`Radiance`]: f16 RGB or RGB9E5, the
-//! bytes of the file's radiance sections), so loading a file is one read per section and a
-//! renderer uploads the values as they are; decoding to f32 happens only where f32 is needed.
+//! [`Radiance`]: radiance values kept in their stored encoding.
 
 use std::fmt;
 
-use serde::{Deserialize, Serialize};
-
-use crate::bake::reference::EnergyStats;
-use crate::bake::tiles::TileIndex;
-use crate::bake::{BakeFace, BakeParams, BakeTriangle};
-use crate::directions::DirectionSet;
-pub use crate::format::RadianceEncoding;
-use crate::format::hash::BLOCK;
-use crate::format::parallel;
-use crate::scene::{Camera, SceneSummary, Similarity};
-
-/// Timings and bookkeeping of a bake.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct BakeStats {
-    /// Iterations run.
-    pub iterations: u32,
-    /// `"gpu"` or `"cpu"`.
-    pub device: String,
-    /// Adapter description (GPU) or `"CPU reference"`.
-    pub adapter: String,
-    /// (phase name, seconds), in order.
-    pub phases: Vec<(String, f64)>,
-    pub emitted: f64,
-    pub injected: f64,
-    pub absorbed: f64,
-    pub escaped: f64,
-    pub unshot: f64,
-    pub unshot_history: Vec<f64>,
-}
-
-impl BakeStats {
-    pub fn set_energy(&mut self, e: &EnergyStats) {
-        self.emitted = e.emitted;
-        self.injected = e.injected;
-        self.absorbed = e.absorbed;
-        self.escaped = e.escaped;
-        self.unshot = e.unshot;
-        self.unshot_history = e.unshot_history.clone();
-    }
-
-    pub fn total_seconds(&self) -> f64 {
-        self.phases.iter().map(|p| p.1).sum()
-    }
-}
-
-/// A baked virtual light field.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LightField {
-    pub params: BakeParams,
-    pub directions: DirectionSet,
-    /// World → VLF transform of the scene.
-    pub to_vlf: Similarity,
-    pub scene: SceneSummary,
-    /// The scene's glTF cameras (world space), for the viewer.
-    pub cameras: Vec<Camera>,
-    /// Geometry in VLF coordinates.
-    pub triangles: Vec<BakeTriangle>,
-    /// Faces with their atlas charts.
-    pub faces: Vec<BakeFace>,
-    /// Total outgoing radiance per atlas texel (rgb), emission included; both sides of every
-    /// face (see [`BakeFace::texel_base`]).
-    pub radiance: Radiance,
-    /// Sparse per-direction tiles of the mirror and mixed faces (specular part of their
-    /// outgoing radiance); `None` for diffuse-only scenes.
-    pub tiles: Option<MirrorTiles>,
-    pub stats: BakeStats,
-}
-
-/// Specular outgoing radiance of non-diffuse faces (see `bake::tiles` for the layout).
-#[derive(Clone, Debug, PartialEq)]
-pub struct MirrorTiles {
-    pub index: TileIndex,
-    /// Total outgoing radiance per tile value (rgb): `index.value_len()` entries.
-    pub radiance: Radiance,
-}
-
-impl LightField {
-    /// Bytes of the radiance data in memory (atlas and mirror tiles, as stored).
-    pub fn radiance_bytes(&self) -> usize {
-        self.radiance.byte_len() + self.tiles.as_ref().map_or(0, |t| t.radiance.byte_len())
-    }
-}
+use super::encoding::RadianceEncoding;
+use crate::hash::{BLOCK, xxh64};
+use crate::parallel;
 
 /// Radiance values (rgb) in a stored encoding: exactly the bytes of a `.vlf` radiance section
 /// (little-endian), held in `u32` words so that the buffer is aligned for checksums,
@@ -310,10 +228,7 @@ impl fmt::Debug for Radiance {
             .field("encoding", &self.encoding.name())
             .field("len", &self.len)
             .field(if self.len > SHOWN { "first" } else { "values" }, &head)
-            .field(
-                "xxh64",
-                &format_args!("{:016x}", crate::format::hash::xxh64(self.as_bytes(), 0)),
-            )
+            .field("xxh64", &format_args!("{:016x}", xxh64(self.as_bytes(), 0)))
             .finish()
     }
 }
@@ -424,7 +339,7 @@ mod tests {
         for (i, o) in out[..r.len()].iter().enumerate() {
             assert_eq!(o[..3], halves[3 * i..3 * i + 3], "texel {i}");
             assert_eq!(o[3], 0);
-            let f = o.map(|h| crate::format::encoding::f16_decode(u16::from_le(h)));
+            let f = o.map(|h| crate::lightfield::encoding::f16_decode(u16::from_le(h)));
             assert_eq!([f[0], f[1], f[2]], r.get(i));
         }
         assert_eq!(out[r.len()..], [[7; 4]; 2]);

@@ -76,9 +76,9 @@ pub(crate) fn block_ranges<R: Send>(
     })
 }
 
-/// [`super::hash::section_checksum`] of `data`, blocks hashed on several threads when large.
+/// [`crate::hash::section_checksum`] of `data`, blocks hashed on several threads when large.
 pub(crate) fn section_checksum(data: &[u8]) -> u64 {
-    use super::hash::{BLOCK, block_hash, combine};
+    use crate::hash::{BLOCK, block_hash, combine};
     let blocks = data.len().div_ceil(BLOCK);
     let hashes: Vec<u64> = block_ranges(blocks, data.len(), |r| {
         r.map(|b| block_hash(&data[b * BLOCK..((b + 1) * BLOCK).min(data.len())], b))

@@ -1,4 +1,5 @@
-//! Bake parameters and quality presets.
+//! Bake parameters: everything that controls a bake, stored in the file (the presets that
+//! choose them are `bake::Quality`).
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -10,17 +11,6 @@ pub enum Iterations {
     Fixed(u32),
     /// Until the unshot power falls below `threshold` × the emitted power, at most `max`.
     Converge { threshold: f32, max: u32 },
-}
-
-/// Parameter presets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Quality {
-    /// Fast preview.
-    Draft,
-    /// The default.
-    Auto,
-    /// Slow, for references and final bakes.
-    High,
 }
 
 /// Everything that controls a bake. Stored in the output file.
@@ -56,33 +46,6 @@ pub enum ParamsError {
     },
 }
 
-impl Quality {
-    /// The preset's parameters (before any scene-driven adjustment).
-    pub fn params(self) -> BakeParams {
-        // Texels span 2×2 rays: each texel then averages ~4 rays per direction, which removes
-        // most of the per-texel aliasing noise (Cornell box, 512 directions, 64² rays: relMSE
-        // against the path-traced reference 2.9e-3 with 1 ray per texel, 1.4e-3 with 2×2).
-        let (directions, resolution, tile, max) = match self {
-            Quality::Draft => (126, 32, 8, 8),
-            Quality::Auto => (512, 64, 8, 64),
-            Quality::High => (2048, 128, 16, 128),
-        };
-        BakeParams {
-            directions,
-            resolution,
-            tile,
-            texel_scale: 2.0,
-            iterations: Iterations::Converge {
-                threshold: 1e-3,
-                max,
-            },
-            sky: Vec3::ZERO,
-            perturb: 0,
-            seed: DEFAULT_SEED,
-        }
-    }
-}
-
 /// Default seed for perturbed directions.
 pub const DEFAULT_SEED: u64 = 0x5eed_0001;
 
@@ -95,7 +58,9 @@ impl BakeParams {
             tile: 8,
             texel_scale: 1.0,
             iterations: Iterations::Fixed(3),
-            ..Quality::Auto.params()
+            sky: Vec3::ZERO,
+            perturb: 0,
+            seed: DEFAULT_SEED,
         }
     }
 

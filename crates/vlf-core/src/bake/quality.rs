@@ -1,0 +1,45 @@
+//! Quality presets: the parameters a bake starts from before any scene-driven adjustment
+//! ([`super::auto`]).
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use crate::lightfield::params::{BakeParams, DEFAULT_SEED, Iterations};
+
+/// Parameter presets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Quality {
+    /// Fast preview.
+    Draft,
+    /// The default.
+    Auto,
+    /// Slow, for references and final bakes.
+    High,
+}
+
+impl Quality {
+    /// The preset's parameters (before any scene-driven adjustment).
+    pub fn params(self) -> BakeParams {
+        // Texels span 2×2 rays: each texel then averages ~4 rays per direction, which removes
+        // most of the per-texel aliasing noise (Cornell box, 512 directions, 64² rays: relMSE
+        // against the path-traced reference 2.9e-3 with 1 ray per texel, 1.4e-3 with 2×2).
+        let (directions, resolution, tile, max) = match self {
+            Quality::Draft => (126, 32, 8, 8),
+            Quality::Auto => (512, 64, 8, 64),
+            Quality::High => (2048, 128, 16, 128),
+        };
+        BakeParams {
+            directions,
+            resolution,
+            tile,
+            texel_scale: 2.0,
+            iterations: Iterations::Converge {
+                threshold: 1e-3,
+                max,
+            },
+            sky: Vec3::ZERO,
+            perturb: 0,
+            seed: DEFAULT_SEED,
+        }
+    }
+}

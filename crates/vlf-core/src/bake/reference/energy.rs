@@ -1,0 +1,173 @@
+//! Step 5 (the next unshot radiance from the gathered irradiance) and the energy bookkeeping
+//! of a bake: per-iteration terms, their sums, the stopping rule.
+
+use glam::{Vec3, Vec4};
+use serde::Serialize;
+
+use crate::bake::BakeScene;
+use crate::directions::DirectionSet;
+use crate::lightfield::{BakeStats, Iterations, TileIndex};
+use crate::psf::PsfGrid;
+
+/// Energy bookkeeping of a bake (powers in VLF units², summed over r, g, b).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct EnergyStats {
+    /// Σ π·L_e·area of emitting texels.
+    pub emitted: f64,
+    /// Power received directly from the sky and suns (first iteration).
+    pub injected: f64,
+    /// Power absorbed by surfaces, all iterations.
+    pub absorbed: f64,
+    /// Power that left the scene (rays reaching the unit sphere), all iterations.
+    pub escaped: f64,
+    /// Power still unshot after the last iteration.
+    pub unshot: f64,
+    /// Unshot power after each iteration.
+    pub unshot_history: Vec<f64>,
+}
+
+impl EnergyStats {
+    /// Adds one finished iteration's terms (shared by the CPU and GPU propagators).
+    pub fn record(&mut self, e: &IterationEnergy) {
+        self.injected += e.injected;
+        self.absorbed += e.absorbed;
+        self.escaped += e.escaped;
+        self.unshot = e.next;
+        self.unshot_history.push(e.next);
+    }
+
+    /// Whether the unshot power is at most `threshold` × (emitted + injected); never for a
+    /// threshold of 0 (fixed iteration counts).
+    pub fn converged(&self, threshold: f32) -> bool {
+        let src = self.emitted + self.injected;
+        threshold > 0.0 && (src <= 0.0 || self.unshot <= f64::from(threshold) * src)
+    }
+
+    /// (emitted + injected) − (absorbed + escaped + unshot), relative to emitted + injected.
+    pub fn relative_imbalance(&self) -> f64 {
+        let src = self.emitted + self.injected;
+        if src <= 0.0 {
+            return 0.0;
+        }
+        (src - (self.absorbed + self.escaped + self.unshot)) / src
+    }
+
+    /// Copies the totals into a bake's statistics (what the file keeps of them).
+    pub fn copy_into(&self, stats: &mut BakeStats) {
+        stats.emitted = self.emitted;
+        stats.injected = self.injected;
+        stats.absorbed = self.absorbed;
+        stats.escaped = self.escaped;
+        stats.unshot = self.unshot;
+        stats.unshot_history = self.unshot_history.clone();
+    }
+}
+
+/// Per-iteration energy terms computed by [`finish_iteration`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct IterationEnergy {
+    pub sent: f64,
+    pub received: f64,
+    pub injected: f64,
+    pub absorbed: f64,
+    pub escaped: f64,
+    pub next: f64,
+}
+
+/// Per texel-side accumulators of one iteration (the GPU gather pass keeps the same two vec4s).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TexelAccum {
+    /// Σ |cos|·ΔΩ·L over valid quadrature directions (rgb) and Σ |cos|·ΔΩ of them (w).
+    pub irradiance: Vec4,
+    /// Σ E_sun·|cos|·open over suns (rgb) and Σ |cos|·ΔΩ·open over quadrature directions (w).
+    pub open: Vec4,
+}
+
+/// Step 5: from the accumulators, the next unshot radiance per texel, and the energy terms.
+/// Normalises the quadrature so that Σ|cos|ΔΩ over a texel's valid directions is π (uniform
+/// incoming radiance L then gives irradiance exactly πL: furnace-exact).
+pub fn finish_iteration(
+    scene: &BakeScene,
+    tex_face: &[u32],
+    acc: &[TexelAccum],
+    unshot: &[[f32; 4]],
+    sky: Vec3,
+    next: &mut [[f32; 4]],
+) -> IterationEnergy {
+    let mut e = IterationEnergy::default();
+    for t in 0..scene.texel_count() {
+        let area = f64::from(scene.texel_area[t]);
+        let u = Vec4::from(unshot[t]).truncate();
+        e.sent += sum3(u) * std::f64::consts::PI * area;
+        let a = acc[t];
+        if area <= 0.0 || a.irradiance.w <= 0.0 {
+            next[t] = [0.0; 4];
+            continue;
+        }
+        let k = std::f32::consts::PI / a.irradiance.w;
+        let e_surf = a.irradiance.truncate() * k;
+        let e_inj = sky * (a.open.w * k) + a.open.truncate();
+        let irr = e_surf + e_inj;
+        let rho = Vec4::from(scene.albedo[t]).truncate();
+        let b = rho * irr;
+        // The specular part leaves through the tiles (their power is counted from the tiles).
+        let spec = Vec4::from(scene.specular[tex_face[t] as usize]).truncate() * irr;
+        next[t] = (b / std::f32::consts::PI).extend(0.0).into();
+        e.received += sum3(e_surf) * area;
+        e.injected += sum3(e_inj) * area;
+        e.absorbed += sum3(irr - b - spec) * area;
+        e.next += sum3(b) * area;
+        e.escaped += sum3(u) * f64::from(a.open.w * k) * area;
+    }
+    e
+}
+
+/// Power carried by tile radiance (Σ L × cell area × ΔΩ), summed over channels.
+pub fn tile_power(
+    index: &TileIndex,
+    values: &[[f32; 4]],
+    set: &DirectionSet,
+    grid: &PsfGrid,
+) -> f64 {
+    let m2 = (index.m * index.m) as usize;
+    let a = f64::from(grid.cell_size() * grid.cell_size());
+    let mut p = 0f64;
+    for k in 0..index.index_start.len() - 1 {
+        let j = k % index.directions as usize;
+        let omega = f64::from(set.solid_angle(j as u32));
+        for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
+            for v in &values[slot * 2 * m2..(slot + 1) * 2 * m2] {
+                p += sum3(Vec4::from(*v).truncate()) * a * omega;
+            }
+        }
+    }
+    p
+}
+
+/// (maximum iterations, convergence threshold or 0) of a stopping rule.
+pub fn stopping(rule: Iterations) -> (u32, f32) {
+    match rule {
+        Iterations::Fixed(n) => (n, 0.0),
+        Iterations::Converge { threshold, max } => (max, threshold),
+    }
+}
+
+/// `total += next`, element by element.
+pub fn accumulate(total: &mut [[f32; 4]], next: &[[f32; 4]]) {
+    for (t, n) in total.iter_mut().zip(next) {
+        *t = (Vec4::from(*t) + Vec4::from(*n)).into();
+    }
+}
+
+/// Σ π·L·area over texels, summed over channels.
+pub(super) fn power(radiance: &[[f32; 4]], area: &[f32]) -> f64 {
+    radiance
+        .iter()
+        .zip(area)
+        .map(|(l, a)| sum3(Vec4::from(*l).truncate()) * std::f64::consts::PI * f64::from(*a))
+        .sum()
+}
+
+pub(super) fn sum3(v: Vec3) -> f64 {
+    f64::from(v.x) + f64::from(v.y) + f64::from(v.z)
+}

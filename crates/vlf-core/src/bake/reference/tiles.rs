@@ -1,0 +1,244 @@
+//! The mirror tiles in the propagation: which tiles a non-diffuse face's projection touches
+//! ([`tile_index`]; the index itself is `lightfield::TileIndex`), the specular radiance a
+//! face sends from them, and the reflect jobs that receive into them.
+//!
+//! Receiving (the reflect step) is a gather: every destination cell of the three directions
+//! around the reflected direction maps through the face plane back into the current PSF and
+//! reads the radiance arriving there. No float atomics.
+
+use glam::{Vec2, Vec3, Vec4};
+
+use super::cells::ray_hit;
+use super::transport::TransportDir;
+use crate::bake::BakeScene;
+use crate::directions::DirectionSet;
+use crate::lightfield::{FACE_DIFFUSE, TileIndex, tiles::words_per_slot};
+use crate::psf::{PsfFrame, PsfGrid, cell_at, fixed_frame, fixed_frames};
+
+/// Allocates the tiles every non-diffuse face's projection touches in every fixed direction.
+pub fn tile_index(scene: &BakeScene, set: &DirectionSet, grid: &PsfGrid) -> TileIndex {
+    let l = set.len();
+    let mut face_slot = vec![u32::MAX; scene.faces.len()];
+    let mut faces = Vec::new();
+    for (fi, f) in scene.faces.iter().enumerate() {
+        if f.kind != FACE_DIFFUSE {
+            face_slot[fi] = faces.len() as u32;
+            faces.push(fi as u32);
+        }
+    }
+    // Triangles of each non-diffuse face.
+    let mut tris: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); faces.len()];
+    for t in &scene.triangles {
+        let s = face_slot[t.face as usize];
+        if s != u32::MAX {
+            tris[s as usize].push([t.p0, t.p1, t.p2].map(Vec3::from));
+        }
+    }
+    let tiles = grid.tiles_per_side() as usize;
+    let mut index_start = Vec::with_capacity(faces.len() * l + 1);
+    let mut tile_ids = Vec::new();
+    let m = grid.tile;
+    let words = words_per_slot(m);
+    let mut coverage = Vec::new();
+    // Per tile of the current (face, direction): its coverage bits while being built.
+    let mut bits: Vec<Option<Vec<u32>>> = vec![None; tiles * tiles];
+    for face_tris in &tris {
+        for j in 0..l {
+            index_start.push(tile_ids.len() as u32);
+            let frame = fixed_frame(set, j);
+            let mut touched = Vec::new();
+            for t in face_tris {
+                let q = t.map(|p| frame.to_psf(p));
+                let (i0, j0, i1, j1) = cell_range(&q, grid);
+                for cj in j0..=j1 {
+                    for ci in i0..=i1 {
+                        let (a, b) = grid.cell_center(ci, cj);
+                        if ray_hit(&q, Vec2::new(a, b)).is_none() {
+                            continue;
+                        }
+                        let id = ((cj / m) * grid.tiles_per_side() + ci / m) as usize;
+                        let entry = bits[id].get_or_insert_with(|| {
+                            touched.push(id as u32);
+                            vec![0u32; words]
+                        });
+                        let bit = (cj % m) * m + ci % m;
+                        entry[(bit / 32) as usize] |= 1 << (bit % 32);
+                    }
+                }
+            }
+            touched.sort_unstable();
+            for id in touched {
+                tile_ids.push(id);
+                coverage.extend(bits[id as usize].take().expect("touched tile has bits"));
+            }
+        }
+    }
+    index_start.push(tile_ids.len() as u32);
+    TileIndex {
+        m: grid.tile,
+        n: grid.n,
+        directions: l as u32,
+        face_slot,
+        faces,
+        index_start,
+        tile_ids,
+        coverage,
+    }
+}
+
+/// Range of cells `(i0, j0, i1, j1)` whose centres a projected triangle's bounding box may
+/// contain, widened by one cell (conservative against rounding).
+fn cell_range(q: &[Vec3; 3], grid: &PsfGrid) -> (u32, u32, u32, u32) {
+    let n = grid.n as f32;
+    let lo = q[0].min(q[1]).min(q[2]);
+    let hi = q[0].max(q[1]).max(q[2]);
+    let c = |x: f32, d: f32| ((((x + 1.0) * 0.5 * n - 0.5).floor() + d).clamp(0.0, n - 1.0)) as u32;
+    (
+        c(lo.x, -1.0),
+        c(lo.y, -1.0),
+        c(hi.x + 2.0 / n, 1.0),
+        c(hi.y + 2.0 / n, 1.0),
+    )
+}
+
+/// Specular unshot radiance leaving `face` at VLF point `y` travelling `t`: the three fixed
+/// directions around `t`, weighted by their barycentric weights.
+#[allow(clippy::too_many_arguments)]
+pub fn specular_outgoing(
+    index: &TileIndex,
+    values: &[[f32; 4]],
+    set: &DirectionSet,
+    frames: &[PsfFrame],
+    face: u32,
+    y: Vec3,
+    t: Vec3,
+) -> Vec3 {
+    let lk = set.lookup(t);
+    let l = set.len() as u32;
+    let mut out = Vec3::ZERO;
+    for k in 0..3 {
+        let w = lk.weights[k];
+        if w <= 0.0 {
+            continue;
+        }
+        let (j, sense) = (lk.vertices[k] % l, lk.vertices[k] / l);
+        let q = frames[j as usize].to_psf(y);
+        let (ci, cj) = cell_at(q.x, q.y, index.n);
+        if let Some(i) = index.value_index(face, j, sense, ci, cj) {
+            out += Vec4::from(values[i]).truncate() * w;
+        }
+    }
+    out
+}
+
+/// One destination of the reflect step: incoming light of transport direction `dir` (sense
+/// `incoming_sense`: 0 = travelling +w, 1 = −w) on non-diffuse face `face` goes, reflected, to
+/// fixed direction `j`, sense `sense`, with weight `weight` (ρ_s × barycentric × ΔΩ_t / W_v).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReflectJob {
+    pub face: u32,
+    pub incoming_sense: u32,
+    pub j: u32,
+    pub sense: u32,
+    /// Multiplies the arriving radiance (or the sun's irradiance).
+    pub weight: Vec3,
+}
+
+/// Reflect jobs of every transport direction (outer index = direction, including suns last).
+/// The weight of destination vertex v of face f is normalised by
+/// W(f, v) = Σ_t w_v(reflect(t))·ΔΩ_t over all quadrature directions and senses, so a uniform
+/// incoming radiance L reflects to exactly ρ·L in every direction.
+pub fn reflect_jobs(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    dirs: &[TransportDir],
+    index: &TileIndex,
+) -> Vec<Vec<ReflectJob>> {
+    let l = set.len() as u32;
+    let mut out = vec![Vec::new(); dirs.len()];
+    for &face in &index.faces {
+        let f = &scene.faces[face as usize];
+        let n = f.normal();
+        let rho = Vec4::from(scene.specular[face as usize]).truncate();
+        // Splat every incoming direction (both senses) to its 3 reflected vertices.
+        let mut norm = vec![0f64; 2 * l as usize];
+        let mut splats: Vec<(usize, u32, [u32; 3], [f32; 3])> = Vec::new();
+        for (di, d) in dirs.iter().enumerate() {
+            for sense in 0..2u32 {
+                if d.sun.is_some() && sense == 1 {
+                    continue; // suns travel along +w only
+                }
+                let t = if sense == 0 { d.frame.w } else { -d.frame.w };
+                let r = t - 2.0 * t.dot(n) * n;
+                let lk = set.lookup(r);
+                if d.sun.is_none() {
+                    for k in 0..3 {
+                        norm[lk.vertices[k] as usize] += f64::from(lk.weights[k] * d.weight);
+                    }
+                }
+                splats.push((di, sense, lk.vertices, lk.weights));
+            }
+        }
+        for (di, sense, verts, weights) in splats {
+            let d = &dirs[di];
+            for k in 0..3 {
+                let v = verts[k] as usize;
+                if weights[k] <= 0.0 || norm[v] <= 0.0 {
+                    continue;
+                }
+                // Quadrature directions carry radiance × ΔΩ; a sun carries irradiance.
+                let omega = if d.sun.is_some() { 1.0 } else { d.weight };
+                out[di].push(ReflectJob {
+                    face,
+                    incoming_sense: sense,
+                    j: verts[k] % l,
+                    sense: verts[k] / l,
+                    weight: rho * (weights[k] * omega / norm[v] as f32),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The non-diffuse state of an iteration: tile index, fixed-direction frames and the unshot
+/// tile radiance that senders read.
+pub struct Specular<'a> {
+    pub index: &'a TileIndex,
+    pub set: &'a DirectionSet,
+    pub frames: &'a [PsfFrame],
+    pub unshot: &'a [[f32; 4]],
+}
+
+/// What one direction's gather needs for non-diffuse faces: the sender state, this direction's
+/// reflect jobs, and the next-iteration tiles they write.
+pub type SpecularStep<'a, 'b> = (&'a Specular<'a>, &'b [ReflectJob], &'b mut [[f32; 4]]);
+
+/// Non-diffuse state shared by the CPU and GPU propagators.
+pub struct SpecularSetup {
+    pub index: TileIndex,
+    pub frames: Vec<PsfFrame>,
+    /// Per transport direction (same order as [`all_directions`]).
+    pub jobs: Vec<Vec<ReflectJob>>,
+}
+
+impl SpecularSetup {
+    /// `None` when the scene has no mirror or mixed face.
+    pub fn new(
+        scene: &BakeScene,
+        set: &DirectionSet,
+        grid: &PsfGrid,
+        dirs: &[TransportDir],
+    ) -> Option<Self> {
+        if scene.faces.iter().all(|f| f.kind == FACE_DIFFUSE) {
+            return None;
+        }
+        let index = tile_index(scene, set, grid);
+        let jobs = reflect_jobs(scene, set, dirs, &index);
+        Some(Self {
+            index,
+            frames: fixed_frames(set),
+            jobs,
+        })
+    }
+}
