@@ -18,7 +18,6 @@
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::fs;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
@@ -654,32 +653,17 @@ pub fn write_json_atomic(path: &Path, value: &impl Serialize) -> anyhow::Result<
     write_bytes_atomic(path, &bytes)
 }
 
-/// Writes `bytes` to `path` through a synced temporary file in the same directory and a
-/// rename: readers see the old file or the new one, never a partial one.
+/// Writes `bytes` to `path` atomically ([`vlf_core::atomic_file`]: a synced temporary file in
+/// the same directory and a rename), creating the directory: readers see the old file or the
+/// new one, never a partial one.
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| anyhow::anyhow!("{} has no file name", path.display()))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     fs::create_dir_all(dir)?;
-    let tmp = dir.join(format!(
-        ".{}.tmp.{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    Ok(result?)
+    vlf_core::atomic_file::write_bytes(path, bytes)
+        .map_err(|e| anyhow::anyhow!("cannot write file ({e}): {}", path.display()))
 }
 
 /// Scene files under `dir`, relative to it, sorted; symbolic links are not followed.

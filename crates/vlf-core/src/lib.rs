@@ -3,6 +3,7 @@
 //! radiosity baseline. The modules form layers, each using only those below it (checked by
 //! `cargo xtask check-modules`; see `docs/ARCHITECTURE.md`).
 
+pub mod atomic_file;
 pub mod bake;
 pub mod directions;
 pub mod format;

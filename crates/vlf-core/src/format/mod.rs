@@ -21,10 +21,9 @@ mod info;
 mod tiles;
 
 use std::borrow::Cow;
-use std::fs::{self, File, OpenOptions};
+use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use bytemuck::Pod;
 
@@ -33,7 +32,7 @@ use crate::lightfield::{
     BakeFace, BakeParams, BakeTriangle, DEFAULT_ENCODING, FACE_MIXED, LightField, MirrorTiles,
     Radiance, RadianceEncoding,
 };
-use crate::{hash, parallel};
+use crate::{atomic_file, hash, parallel};
 use disk::{
     FileCamera, FileDirections, FileFace, FileHeader, FileParams, FileSceneSummary, FileStats,
     FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble, SECTION_ALIGN,
@@ -214,68 +213,23 @@ pub fn write_atomic(path: &Path, lf: &LightField) -> Result<u64, FormatError> {
 ///
 /// The file is written to `.NAME.tmp.PID.N` in the target's directory (a name that never ends
 /// in `.vlf`, so a stale one cannot be mistaken for output), synced, renamed over `path`, and
-/// the directory is synced. On any error before the rename the temporary file is removed and
-/// an existing `path` is untouched. A failure to sync the directory after the rename is
-/// reported, but the new file is then already in place.
+/// the directory is synced ([`atomic_file`]). On any error before the rename the temporary
+/// file is removed and an existing `path` is untouched. A failure to sync the directory after
+/// the rename is reported, but the new file is then already in place.
 pub fn write_atomic_with(
     path: &Path,
     lf: &LightField,
     encoding: RadianceEncoding,
 ) -> Result<u64, FormatError> {
     let file = encode(lf, encoding, path)?;
-    let werr = |step: String, source| FormatError::Write {
-        step,
-        path: path.to_owned(),
-        source,
-    };
-    let name = path.file_name().ok_or_else(|| {
-        werr(
-            "choosing a temporary name".into(),
-            io::Error::new(io::ErrorKind::InvalidInput, "the path has no file name"),
-        )
-    })?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    // The pid and a per-process counter make the name unique among live writers; a stale
-    // temporary file of a dead process with the same pid is skipped, never overwritten.
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let mut attempts = 0;
-    let (tmp_path, tmp) = loop {
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        attempts += 1;
-        let tmp_name = format!(".{}.tmp.{}.{n}", name.to_string_lossy(), std::process::id());
-        let tmp_path = dir.join(&tmp_name);
-        match OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp_path)
-        {
-            Ok(f) => break (tmp_path, f),
-            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempts < 64 => continue,
-            Err(e) => return Err(werr(format!("creating temporary file {tmp_name}"), e)),
+    atomic_file::write(path, |out| file.write_to(out)).map_err(|e| {
+        let (step, source) = e.into_step();
+        FormatError::Write {
+            step,
+            path: path.to_owned(),
+            source,
         }
-    };
-    let mut guard = TempGuard(Some(tmp_path.clone()));
-    let tmp_name = tmp_path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut out = io::BufWriter::with_capacity(1 << 20, tmp);
-    file.write_to(&mut out)
-        .and_then(|()| out.flush())
-        .map_err(|e| werr(format!("writing {tmp_name}"), e))?;
-    let tmp = out
-        .into_inner()
-        .map_err(|e| werr(format!("writing {tmp_name}"), e.into_error()))?;
-    tmp.sync_all()
-        .map_err(|e| werr(format!("syncing {tmp_name}"), e))?;
-    drop(tmp);
-    fs::rename(&tmp_path, path)
-        .map_err(|e| werr(format!("renaming {tmp_name} over the target"), e))?;
-    guard.0 = None;
-    sync_dir(dir).map_err(|e| werr("syncing the directory after the rename".into(), e))?;
+    })?;
     log::debug!("wrote {} ({} bytes)", path.display(), file.len);
     Ok(file.len)
 }
@@ -332,28 +286,6 @@ pub fn describe_bytes(bytes: &[u8], path: &Path) -> Result<FileInfo, FormatError
 }
 
 // ----- writing ------------------------------------------------------------------------------
-
-struct TempGuard(Option<PathBuf>);
-
-impl Drop for TempGuard {
-    fn drop(&mut self) {
-        if let Some(p) = self.0.take()
-            && let Err(e) = fs::remove_file(&p)
-        {
-            log::warn!("cannot remove temporary file {}: {e}", p.display());
-        }
-    }
-}
-
-#[cfg(unix)]
-fn sync_dir(dir: &Path) -> io::Result<()> {
-    File::open(dir)?.sync_all()
-}
-
-#[cfg(not(unix))]
-fn sync_dir(_dir: &Path) -> io::Result<()> {
-    Ok(())
-}
 
 /// An encoded file, ready to be written: radiance stored in the requested encoding is
 /// borrowed from the light field, not copied.

@@ -15,10 +15,10 @@
 pub mod flip;
 
 use std::fs::File;
-use std::io::{BufWriter, Cursor, Write};
+use std::io::{BufWriter, Cursor};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::atomic_file::{self, AtomicWriteError};
 pub use flip::{FlipParams, FlipResult, flip, flip_hdr, flip_ldr, flip_ldr_srgb};
 
 /// A linear Rec.709 RGB image: `pixels[y * width + x]`, row 0 at the top.
@@ -453,48 +453,20 @@ fn write_png_rgb8(path: &Path, width: u32, height: u32, data: &[u8]) -> Result<(
     })
 }
 
-/// Writes `f` into a temporary file next to `path`, syncs it and renames it over `path`.
-/// The temporary file is removed on failure.
+/// Writes `f` into a temporary file next to `path` and renames it over `path`
+/// ([`atomic_file::write`]); a failed step is an [`ImageError::Io`].
 fn write_atomically(
     path: &Path,
     f: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let io_err = |source: std::io::Error| ImageError::Io {
-        action: "write",
-        cause: source,
-        path: path.to_path_buf(),
-    };
-    let Some(file_name) = path.file_name() else {
-        return Err(io_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "path has no file name",
-        )));
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let tmp = dir.join(format!(
-        ".{}.{}-{}.tmp",
-        file_name.to_string_lossy(),
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = (|| {
-        let file = File::create(&tmp).map_err(io_err)?;
-        let mut writer = BufWriter::new(file);
-        f(&mut writer)?;
-        writer.flush().map_err(io_err)?;
-        let file = writer.into_inner().map_err(|e| io_err(e.into_error()))?;
-        file.sync_all().map_err(io_err)?;
-        drop(file);
-        std::fs::rename(&tmp, path).map_err(io_err)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    atomic_file::write(path, f).map_err(|e| match e {
+        AtomicWriteError::Io { source, .. } => ImageError::Io {
+            action: "write",
+            cause: source,
+            path: path.to_path_buf(),
+        },
+        AtomicWriteError::Content { error, .. } => error,
+    })
 }
 
 fn assert_same_size(a: &Image, b: &Image, what: &str) {
