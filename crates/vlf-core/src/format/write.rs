@@ -1,0 +1,211 @@
+//! Encoding a light field into the bytes of a file: sections, checksums, header and preamble.
+
+use std::borrow::Cow;
+use std::io::{self, Write};
+use std::path::Path;
+
+use bytemuck::Pod;
+
+use super::FormatError;
+use super::disk::{
+    self, FileCamera, FileDirections, FileFace, FileHeader, FileParams, FileSceneSummary,
+    FileStats, FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble,
+    SECTION_ALIGN, SectionEntry, VERSION,
+};
+use super::tiles;
+use super::validate::{validate_geometry, validate_header_content};
+use crate::hash;
+use crate::lightfield::{LightField, Radiance, RadianceEncoding};
+use crate::parallel;
+
+/// An encoded file, ready to be written: radiance stored in the requested encoding is
+/// borrowed from the light field, not copied.
+pub(super) struct Encoded<'a> {
+    head: Vec<u8>,
+    /// (offset, bytes) in file order.
+    sections: Vec<(u64, Cow<'a, [u8]>)>,
+    pub(super) len: u64,
+}
+
+impl Encoded<'_> {
+    pub(super) fn write_to(&self, w: &mut impl Write) -> io::Result<()> {
+        w.write_all(&self.head)?;
+        let mut pos = self.head.len() as u64;
+        let zeros = [0u8; SECTION_ALIGN as usize];
+        for (offset, bytes) in &self.sections {
+            w.write_all(&zeros[..(offset - pos) as usize])?;
+            w.write_all(bytes)?;
+            pos = offset + bytes.len() as u64;
+        }
+        Ok(())
+    }
+}
+
+fn align_up(x: u64) -> u64 {
+    x.div_ceil(SECTION_ALIGN) * SECTION_ALIGN
+}
+
+fn pod_section<T: Pod>(mut items: Vec<T>) -> Vec<u8> {
+    disk::swap_words_le(&mut items);
+    bytemuck::cast_slice::<T, u8>(&items).to_vec()
+}
+
+/// The stored bytes of `r` in `enc`: borrowed when `r` is stored so, else re-encoded.
+fn radiance_bytes(r: &Radiance, enc: RadianceEncoding) -> Cow<'_, [u8]> {
+    if r.encoding() == enc {
+        Cow::Borrowed(r.as_bytes())
+    } else {
+        Cow::Owned(r.to_encoding(enc).as_bytes().to_vec())
+    }
+}
+
+pub(super) fn encode<'a>(
+    lf: &'a LightField,
+    enc: RadianceEncoding,
+    path: &Path,
+) -> Result<Encoded<'a>, FormatError> {
+    let content = |(element, reason)| FormatError::Content {
+        element,
+        reason,
+        path: path.to_owned(),
+    };
+    validate_header_content(&lf.params, &lf.to_vlf, &lf.cameras).map_err(content)?;
+    let texels = lf.radiance.len() as u64;
+    validate_geometry(&lf.triangles, &lf.faces, texels).map_err(content)?;
+
+    let tris: Vec<FileTriangle> = lf.triangles.iter().map(FileTriangle::from).collect();
+    let faces: Vec<FileFace> = lf.faces.iter().map(FileFace::from).collect();
+    let tri_bytes = pod_section(tris);
+    let face_bytes = pod_section(faces);
+    // Radiance is finite by construction (`Radiance` cannot hold NaN or infinity).
+    let rad_bytes = radiance_bytes(&lf.radiance, enc);
+
+    let tiles = match &lf.tiles {
+        Some(t) => {
+            let words = tiles::pack(&t.index);
+            tiles::validate(&t.index, lf.faces.len(), t.radiance.len())
+                .map_err(|r| content(("tile index".into(), r)))?;
+            Some((pod_section(words), radiance_bytes(&t.radiance, enc)))
+        }
+        None => None,
+    };
+    let entry =
+        |name: &str, kind, count: usize, elem: usize, bytes: &[u8], checksum| SectionEntry {
+            name: name.into(),
+            kind,
+            required: true,
+            offset: 0,
+            byte_len: bytes.len() as u64,
+            count: count as u64,
+            elem_size: elem as u32,
+            checksum,
+        };
+    let mut sections = vec![
+        entry(
+            disk::SECTION_TRIANGLES,
+            disk::KIND_TRIANGLE,
+            lf.triangles.len(),
+            size_of::<FileTriangle>(),
+            &tri_bytes,
+            hash::section_checksum(&tri_bytes),
+        ),
+        entry(
+            disk::SECTION_FACES,
+            disk::KIND_FACE,
+            lf.faces.len(),
+            size_of::<FileFace>(),
+            &face_bytes,
+            hash::section_checksum(&face_bytes),
+        ),
+        entry(
+            disk::SECTION_RADIANCE,
+            disk::KIND_RADIANCE,
+            lf.radiance.len(),
+            enc.bytes_per_texel(),
+            &rad_bytes,
+            parallel::section_checksum(&rad_bytes),
+        ),
+    ];
+    let mut bodies = vec![Cow::Owned(tri_bytes), Cow::Owned(face_bytes), rad_bytes];
+    if let Some((idx_bytes, vals)) = tiles {
+        sections.push(entry(
+            disk::SECTION_TILE_INDEX,
+            disk::KIND_TILE_INDEX,
+            idx_bytes.len() / 4,
+            4,
+            &idx_bytes,
+            hash::section_checksum(&idx_bytes),
+        ));
+        sections.push(entry(
+            disk::SECTION_TILE_RADIANCE,
+            disk::KIND_RADIANCE,
+            vals.len() / enc.bytes_per_texel(),
+            enc.bytes_per_texel(),
+            &vals,
+            parallel::section_checksum(&vals),
+        ));
+        bodies.push(Cow::Owned(idx_bytes));
+        bodies.push(vals);
+    }
+    let mut header = FileHeader {
+        params: FileParams::from(&lf.params),
+        directions: FileDirections::from(&lf.directions),
+        transform: FileTransform::from(&lf.to_vlf),
+        scene: FileSceneSummary::from(&lf.scene),
+        cameras: lf.cameras.iter().map(FileCamera::from).collect(),
+        stats: FileStats::from(&lf.stats),
+        radiance_encoding: enc.id(),
+        texels,
+        sections,
+    };
+    // Offsets are varints in the header, so the header length depends on them: iterate until
+    // the aligned header end is stable (it only grows, so this converges in a few rounds).
+    let herr = |e: bincode::error::EncodeError| FormatError::Write {
+        step: "encoding the header".into(),
+        path: path.to_owned(),
+        source: io::Error::other(e.to_string()),
+    };
+    let mut header_bytes = disk::encode_header(&header).map_err(herr)?;
+    let mut start = 0;
+    let file_len = loop {
+        let new_start = align_up((PREAMBLE_LEN + header_bytes.len()) as u64);
+        if new_start <= start {
+            break header
+                .sections
+                .last()
+                .map_or(start, |s| s.offset + s.byte_len);
+        }
+        start = new_start;
+        let mut pos = start;
+        for s in &mut header.sections {
+            s.offset = pos;
+            pos = align_up(pos + s.byte_len);
+        }
+        header_bytes = disk::encode_header(&header).map_err(herr)?;
+    };
+    if header_bytes.len() > MAX_HEADER_LEN {
+        return Err(content((
+            "header".into(),
+            format!(
+                "{} bytes exceed the format's limit of {MAX_HEADER_LEN} (too many cameras or bake phases?)",
+                header_bytes.len()
+            ),
+        )));
+    }
+    let mut preamble = Preamble {
+        magic: MAGIC,
+        version: VERSION,
+        header_len: header_bytes.len() as u32,
+        file_len,
+        header_checksum: 0,
+    };
+    preamble.header_checksum = disk::header_checksum(&preamble, &header_bytes);
+    let mut head = preamble.to_bytes().to_vec();
+    head.extend_from_slice(&header_bytes);
+    let offsets: Vec<u64> = header.sections.iter().map(|s| s.offset).collect();
+    Ok(Encoded {
+        head,
+        sections: offsets.into_iter().zip(bodies).collect(),
+        len: file_len,
+    })
+}
