@@ -362,6 +362,42 @@ impl Similarity {
     }
 }
 
+/// Bounding-box centre and the largest scale keeping every vertex within
+/// `1 − MARGIN` of it, checked in `f32` exactly as [`Similarity::apply`] computes.
+fn fit_similarity(triangles: &[Triangle], bounds: &Aabb) -> Similarity {
+    let center = bounds.center();
+    let c64 = center.as_dvec3();
+    let radius = triangles
+        .iter()
+        .flat_map(|t| t.p)
+        .map(|p| (p.as_dvec3() - c64).length())
+        .fold(0.0f64, f64::max);
+    let target = f64::from(1.0 - Similarity::MARGIN);
+    let mut sim = Similarity {
+        center,
+        scale: if radius > 0.0 {
+            (target / radius) as f32
+        } else {
+            1.0
+        },
+    };
+    if !sim.scale.is_finite() {
+        sim.scale = f32::MAX; // sub-normal scenes
+    }
+    for _ in 0..8 {
+        let max = triangles
+            .iter()
+            .flat_map(|t| t.p)
+            .map(|p| sim.apply(p).length())
+            .fold(0.0f32, f32::max);
+        if max <= 1.0 - Similarity::MARGIN || !max.is_finite() {
+            break;
+        }
+        sim.scale *= (1.0 - Similarity::MARGIN) / max * (1.0 - 1e-6);
+    }
+    sim
+}
+
 /// An imported scene, in world coordinates (see the module docs for conventions).
 ///
 /// Triangles are ordered by face: face `f` owns `triangles[faces[f].triangles]`.

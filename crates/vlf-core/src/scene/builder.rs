@@ -3,8 +3,7 @@
 use glam::{Vec2, Vec3};
 
 use super::faces::{RawTriangle, build_faces};
-use super::gltf_import::fit_similarity;
-use super::{Aabb, Material, MaterialKind, Scene};
+use super::{Aabb, Material, MaterialKind, Scene, fit_similarity};
 
 /// Accumulates triangles and materials, then builds a [`Scene`] exactly as the glTF importer
 /// does (faces merged, VLF transform fitted).
