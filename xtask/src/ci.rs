@@ -49,6 +49,11 @@ pub fn ci(root: &Path) -> Result<()> {
         );
     }
     step("rustfmt", cargo(root).args(["fmt", "--all", "--check"]))?;
+    eprintln!("==> module layers");
+    eprint!(
+        "{}",
+        crate::modgraph::check(root, Path::new(LAYERED_CRATE))?
+    );
     step(
         "clippy",
         cargo(root).args([
