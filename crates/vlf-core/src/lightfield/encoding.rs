@@ -21,7 +21,8 @@ pub enum RadianceEncoding {
     RgbF16,
 }
 
-/// The encoding [`super::write_atomic`] uses.
+/// The encoding light fields are kept in after a bake (`bake::assemble`) and written in by
+/// `format::write_atomic`.
 pub const DEFAULT_ENCODING: RadianceEncoding = RadianceEncoding::RgbF16;
 
 impl RadianceEncoding {

@@ -12,8 +12,7 @@
 //!    neighbouring crossing (or the sky, in the first iteration);
 //! 4. **gather**: every texel reads, at its sample point, the arriving radiance of the nearby
 //!    rays that cross *its own face* (tent filter over the 2×2 nearest cells, so no light leaks
-//!    in from rays that hit another face), weighted by |cos θ| × the direction's solid angle.
-//!
+//!    in from rays that hit another face), weighted by |cos θ| × the direction's solid angle;
 //! 5. **finish**: from the gathered irradiance, the next unshot radiance of every texel and the
 //!    iteration's energy terms.
 //!
@@ -48,14 +47,13 @@ pub use tiles::{
 };
 pub use transport::{SplitMix64, TransportDir, all_directions, transport_directions};
 
-use energy::power;
-
 use glam::{Vec3, Vec4};
 
 use crate::bake::BakeScene;
 use crate::directions::DirectionSet;
 use crate::lightfield::{BakeParams, TileIndex};
 use crate::psf::PsfGrid;
+use energy::power;
 
 /// The result of a propagation: outgoing radiance per texel (both sides), emission included.
 #[derive(Clone, Debug)]

@@ -218,7 +218,7 @@ pub type SpecularStep<'a, 'b> = (&'a Specular<'a>, &'b [ReflectJob], &'b mut [[f
 pub struct SpecularSetup {
     pub index: TileIndex,
     pub frames: Vec<PsfFrame>,
-    /// Per transport direction (same order as [`all_directions`]).
+    /// Per transport direction (same order as [`all_directions`](super::all_directions)).
     pub jobs: Vec<Vec<ReflectJob>>,
 }
 
