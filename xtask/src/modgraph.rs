@@ -26,9 +26,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-/// Runs the check on the crate whose sources are in `root/src` and returns the report (the
-/// layering of every module with submodules); fails listing every cycle with the references
-/// that make it.
+/// Runs the check on the crate whose sources are in `src` (relative to `root`, as the messages
+/// show it) and returns the report (the layering of every module with submodules); fails
+/// listing every cycle with the references that make it.
 pub fn check(root: &Path, src: &Path) -> Result<String> {
     let crate_ = load(root, src)?;
     let mut cycles = String::new();
