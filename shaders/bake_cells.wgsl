@@ -6,56 +6,11 @@
 // painter's sort: the order along each ray is exact, so cyclic overlaps and interpenetrating
 // faces cannot be mis-ordered. Mirrors vlf_core::bake::reference::build_cell_lists.
 
-// Per-direction globals (mirrors vlf_gpu::layout::BakeDirection).
-struct BakeDirection {
-    u: vec4<f32>,
-    v: vec4<f32>,
-    w: vec4<f32>,
-    sun: vec4<f32>,
-    weight: f32,
-    n: u32,
-    tile: u32,
-    k_max: u32,
-    bin_base: u32,
-    tiles_per_side: u32,
-    active_texels: u32,
-    is_sun: u32,
-    spec_plus_v: vec4<u32>,
-    spec_plus_w: vec4<f32>,
-    spec_minus_v: vec4<u32>,
-    spec_minus_w: vec4<f32>,
-    sky: vec4<f32>,
-    tiles_l: u32,
-    tile_m: u32,
-    words_per_slot: u32,
-    face_slot_off: u32,
-    index_start_off: u32,
-    tile_ids_off: u32,
-    coverage_off: u32,
-    tile_values_off: u32,
-    items_base: u32,
-    items_count: u32,
-    has_tiles: u32,
-    _pad: u32,
-}
+#import "common/bake_direction.wgsl"
+#import "common/bake_scene.wgsl"
+#import "common/bake_rays.wgsl"
 
-// A triangle in VLF coordinates (mirrors vlf_core::bake::BakeTriangle).
-struct BakeTriangle {
-    p0: vec3<f32>,
-    face: u32,
-    p1: vec3<f32>,
-    _pad0: u32,
-    p2: vec3<f32>,
-    _pad1: u32,
-}
-
-// One crossing of a ray (mirrors vlf_gpu::layout::CellEntry).
-struct CellEntry {
-    depth: f32,
-    face: u32,
-}
-
-@group(0) @binding(0) var<uniform> dir: BakeDirection;
+// Group 0: `dir` (common/bake_direction.wgsl).
 
 @group(1) @binding(0) var<storage, read> triangles: array<BakeTriangle>;
 @group(1) @binding(1) var<storage, read> bin_start: array<u32>;

@@ -6,66 +6,11 @@
 // crossing is open below (above), where sky and sun enter and outgoing light escapes.
 // Mirrors vlf_core::bake::reference::interface.
 
-struct BakeDirection {
-    u: vec4<f32>,
-    v: vec4<f32>,
-    w: vec4<f32>,
-    sun: vec4<f32>,
-    weight: f32,
-    n: u32,
-    tile: u32,
-    k_max: u32,
-    bin_base: u32,
-    tiles_per_side: u32,
-    active_texels: u32,
-    is_sun: u32,
-    spec_plus_v: vec4<u32>,
-    spec_plus_w: vec4<f32>,
-    spec_minus_v: vec4<u32>,
-    spec_minus_w: vec4<f32>,
-    sky: vec4<f32>,
-    tiles_l: u32,
-    tile_m: u32,
-    words_per_slot: u32,
-    face_slot_off: u32,
-    index_start_off: u32,
-    tile_ids_off: u32,
-    coverage_off: u32,
-    tile_values_off: u32,
-    items_base: u32,
-    items_count: u32,
-    has_tiles: u32,
-    _pad: u32,
-}
+#import "common/bake_direction.wgsl"
+#import "common/bake_scene.wgsl"
+#import "common/bake_rays.wgsl"
 
-struct BakeFace {
-    normal: vec3<f32>,
-    offset: f32,
-    origin: vec3<f32>,
-    texel_size: f32,
-    u: vec3<f32>,
-    width: u32,
-    v: vec3<f32>,
-    height: u32,
-    texel_base: u32,
-    kind: u32,
-    specular: f32,
-    _pad: u32,
-}
-
-struct CellEntry {
-    depth: f32,
-    face: u32,
-}
-
-// Arriving radiance at one crossing (mirrors vlf_gpu::layout::Crossing):
-// below.rgb travelling +w, below.w = 1 if first; above.rgb travelling −w, above.w = 1 if last.
-struct Crossing {
-    below: vec4<f32>,
-    above: vec4<f32>,
-}
-
-@group(0) @binding(0) var<uniform> dir: BakeDirection;
+// Group 0: `dir` (common/bake_direction.wgsl).
 
 @group(1) @binding(0) var<storage, read> faces: array<BakeFace>;
 // Unshot radiance: atlas texels, then the non-diffuse tile values from dir.tile_values_off.

@@ -10,35 +10,8 @@
 // and its NEE contribution at the path's own index (no compaction, tmax < 0 = no shadow ray).
 // Radiance is summed per path slot in `accum` (one path per slot at a time: no atomics needed).
 
-struct BvhNode {
-    min: vec3<f32>,
-    index: u32,
-    max: vec3<f32>,
-    count: u32,
-}
-
-struct RtTriangle {
-    p0: vec3<f32>,
-    material: u32,
-    p1: vec3<f32>,
-    prim: u32,
-    p2: vec3<f32>,
-    light: u32,
-}
-
-struct Ray {
-    origin: vec3<f32>,
-    tmin: f32,
-    dir: vec3<f32>,
-    tmax: f32,
-}
-
-struct Hit {
-    t: f32,
-    tri: u32,
-    u: f32,
-    v: f32,
-}
+#import "common/bvh.wgsl"
+#import "common/hash.wgsl"
 
 // Per-render globals (mirrors vlf_gpu::layout::RtGlobals). Blob offsets are in vec4 units.
 struct RtGlobals {
@@ -74,24 +47,6 @@ struct RtGlobals {
     _pad1: u32,
 }
 
-struct RtBatch {
-    queue: u32,
-    base: u32,
-    next_queue: u32,
-    next_base: u32,
-    shadow_base: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-struct RtQueue {
-    count: atomic<u32>,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
 // Path state (mirrors vlf_gpu::layout::RtPath). In region S: throughput = NEE contribution.
 // pdf < 0: the last bounce was a delta (or camera) sample.
 struct RtPath {
@@ -106,8 +61,7 @@ struct RtPath {
 @group(0) @binding(0) var<uniform> g: RtGlobals;
 @group(0) @binding(1) var<uniform> batch: RtBatch;
 
-@group(1) @binding(0) var<storage, read> nodes: array<BvhNode>;
-@group(1) @binding(1) var<storage, read> triangles: array<RtTriangle>;
+// Group 1 bindings 0, 1 (nodes, triangles): see common/bvh.wgsl.
 // Shading data, materials, emitters, suns, texture headers and texels (see raytrace/scene.rs).
 @group(1) @binding(2) var<storage, read> blob: array<vec4<f32>>;
 
@@ -132,155 +86,8 @@ const TAU: f32 = 6.28318530717959;
 const FAR: f32 = 3.4028235e38;
 const RR_MAX_SURVIVAL: f32 = 0.95;
 
-// BEGIN SHARED TRAVERSAL (identical in raytrace_engine.wgsl and raytrace_path.wgsl; a Rust test
-// checks it)
-const NONE: u32 = 0xffffffffu;
-const BVH_STACK: u32 = 32u;
-// 1 + 2 gamma_3 for f32 (Ize 2013): widens box exits so rounding never culls a touched box.
-const SLAB_WIDEN: f32 = 1.0000004;
-
-// 1 / d with zero components replaced by a tiny signed value (no inf or NaN in the slab test).
-fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
-    let tiny = select(vec3<f32>(1e-30), vec3<f32>(-1e-30), d < vec3<f32>(0.0));
-    return 1.0 / select(d, tiny, abs(d) < vec3<f32>(1e-30));
-}
-
-// Entry distance into the node's box, or -1 when the ray misses it over (tmin, tmax).
-fn slab(n: BvhNode, o: vec3<f32>, inv: vec3<f32>, tmin: f32, tmax: f32) -> f32 {
-    let t0 = (n.min - o) * inv;
-    let t1 = (n.max - o) * inv;
-    let lo = min(t0, t1);
-    let hi = max(t0, t1);
-    let near = max(max(max(lo.x, lo.y), lo.z), tmin);
-    let far = min(min(hi.x, hi.y), hi.z) * SLAB_WIDEN;
-    if near <= min(far, tmax) {
-        return near;
-    }
-    return -1.0;
-}
-
-// Axes permuted so that z is the dominant axis kz (kx = kz + 1, ky = kz + 2 mod 3).
-fn permute(v: vec3<f32>, kz: u32) -> vec3<f32> {
-    if kz == 0u {
-        return v.yzx;
-    }
-    if kz == 1u {
-        return v.zxy;
-    }
-    return v;
-}
-
-// Watertight ray/triangle test (Woop, Benthin & Wald 2013) without the winding swap (both faces
-// count). Returns (t, b1, b2), t < 0 for no hit in (tmin, tmax).
-fn intersect(o: vec3<f32>, kz: u32, s: vec3<f32>, tri: RtTriangle, tmin: f32, tmax: f32) -> vec3<f32> {
-    let a = permute(tri.p0 - o, kz);
-    let b = permute(tri.p1 - o, kz);
-    let c = permute(tri.p2 - o, kz);
-    let ax = a.x - s.x * a.z;
-    let ay = a.y - s.y * a.z;
-    let bx = b.x - s.x * b.z;
-    let by = b.y - s.y * b.z;
-    let cx = c.x - s.x * c.z;
-    let cy = c.y - s.y * c.z;
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    let rcp = 1.0 / det;
-    let t = s.z * (u * a.z + v * b.z + w * c.z) * rcp;
-    if !(t > tmin && t < tmax) {
-        return vec3<f32>(-1.0, 0.0, 0.0);
-    }
-    return vec3<f32>(t, v * rcp, w * rcp);
-}
-
-// Closest hit of the ray (any hit when `any_hit`), by stack traversal nearer child first.
-fn trace(ray: Ray, any_hit: bool) -> Hit {
-    var best = Hit(ray.tmax, NONE, 0.0, 0.0);
-    if !(ray.tmax > ray.tmin) {
-        return best;
-    }
-    let o = ray.origin;
-    let d = ray.dir;
-    let inv = safe_inverse(d);
-    let ad = abs(d);
-    var kz = 2u;
-    if ad.x >= ad.y && ad.x >= ad.z {
-        kz = 0u;
-    } else if ad.y >= ad.z {
-        kz = 1u;
-    }
-    let dp = permute(d, kz);
-    let s = vec3<f32>(dp.x / dp.z, dp.y / dp.z, 1.0 / dp.z);
-    var tmax = ray.tmax;
-    if slab(nodes[0], o, inv, ray.tmin, tmax) < 0.0 {
-        return best;
-    }
-    var stack: array<u32, BVH_STACK>;
-    var sp = 0u;
-    var node = 0u;
-    loop {
-        let n = nodes[node];
-        if n.count > 0u {
-            for (var i = n.index; i < n.index + n.count; i++) {
-                let h = intersect(o, kz, s, triangles[i], ray.tmin, tmax);
-                if h.x >= 0.0 {
-                    best = Hit(h.x, i, h.y, h.z);
-                    tmax = h.x;
-                    if any_hit {
-                        return best;
-                    }
-                }
-            }
-        } else {
-            let l = node + 1u;
-            let r = n.index;
-            let tl = slab(nodes[l], o, inv, ray.tmin, tmax);
-            let tr = slab(nodes[r], o, inv, ray.tmin, tmax);
-            if tl >= 0.0 && tr >= 0.0 {
-                if tl <= tr {
-                    stack[sp] = r;
-                    node = l;
-                } else {
-                    stack[sp] = l;
-                    node = r;
-                }
-                sp += 1u;
-                continue;
-            }
-            if tl >= 0.0 {
-                node = l;
-                continue;
-            }
-            if tr >= 0.0 {
-                node = r;
-                continue;
-            }
-        }
-        if sp == 0u {
-            break;
-        }
-        sp -= 1u;
-        node = stack[sp];
-    }
-    return best;
-}
-// END SHARED TRAVERSAL
-
 // ---------------------------------------------------------------------------------------------
 // Random numbers (mirrors vlf_core::pathtrace::sampling::Rng).
-
-fn pcg_hash(x: u32) -> u32 {
-    let state = x * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
 
 fn rng_next(p: ptr<function, RtPath>) -> u32 {
     let old = (*p).rng_state;
@@ -673,10 +480,6 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
 // Camera and the slot <-> (pixel, sample) mapping: slot = ((tile * k) + j) * 64 + local, with
 // 8x8-pixel tiles in row-major order and local = (y % 8) * 8 + x % 8.
 
-fn invocation(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
-}
-
 // Starts the path of `slot`: its camera ray, or an inactive path (slot NONE) outside the image.
 fn camera_path(slot: u32, ray: ptr<function, Ray>) -> RtPath {
     let local = slot % 64u;
@@ -735,7 +538,7 @@ fn generate(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = invocation(wid, nwg, lid);
+    let i = invocation_index(wid, nwg, lid);
     if i >= g.path_count {
         return;
     }
@@ -751,7 +554,7 @@ fn shade(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = invocation(wid, nwg, lid);
+    let i = invocation_index(wid, nwg, lid);
     if i >= atomicLoad(&queues[batch.queue].count) {
         return;
     }
@@ -780,7 +583,7 @@ fn resolve(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = invocation(wid, nwg, lid);
+    let i = invocation_index(wid, nwg, lid);
     if lid == 0u {
         atomicStore(&wg_shadow, 0u);
     }
@@ -817,7 +620,7 @@ fn finish(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = invocation(wid, nwg, lid);
+    let i = invocation_index(wid, nwg, lid);
     if i >= g.tile_count * 64u {
         return;
     }
@@ -839,7 +642,7 @@ fn megakernel(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
 ) {
-    let i = invocation(wid, nwg, lid);
+    let i = invocation_index(wid, nwg, lid);
     if i >= g.path_count {
         return;
     }

@@ -6,48 +6,30 @@
 // `DirectionSet::lookup` computes on the CPU: weights[n] belongs to the id in component n of
 // pass 1's output.
 
-// Per-frame globals shared by every render pass (mirrors vlf_gpu::layout::RenderGlobals).
-struct RenderGlobals {
-    view_proj: mat4x4<f32>,
-    dir_view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    sky: vec4<f32>,
-    width: u32,
-    height: u32,
-    sample_index: u32,
-    sample_count: u32,
-    sample_weight: f32,
-    face_count: u32,
-    view: u32,
-    tonemap: u32,
-    exposure: f32,
-    encode_srgb: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
+#import "common/render_globals.wgsl"
 
-@group(0) @binding(0) var<uniform> g: RenderGlobals;
+// Group 0: `g` (common/render_globals.wgsl).
 
 @group(1) @binding(0) var<storage, read> sphere_vertices: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read> sphere_triangles: array<vec4<u32>>;
 
-struct VsOut {
+struct BarycentricsOut {
     @builtin(position) clip: vec4<f32>,
     // Perspective-correct (the WGSL default).
     @location(0) bary: vec3<f32>,
 }
 
 @vertex
-fn vs_main(@builtin(vertex_index) vi: u32) -> VsOut {
+fn vs_main(@builtin(vertex_index) vi: u32) -> BarycentricsOut {
     let corner = vi % 3u;
     let v = sphere_triangles[vi / 3u][corner];
-    var out: VsOut;
+    var out: BarycentricsOut;
     out.clip = g.dir_view_proj * vec4<f32>(sphere_vertices[v].xyz, 1.0);
     out.bary = vec3<f32>(f32(corner == 0u), f32(corner == 1u), f32(corner == 2u));
     return out;
 }
 
 @fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+fn fs_main(in: BarycentricsOut) -> @location(0) vec4<f32> {
     return vec4<f32>(in.bary, 0.0);
 }

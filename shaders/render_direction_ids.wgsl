@@ -7,50 +7,32 @@
 // the triangle's stored counter-clockwise order) and the triangle's index (w).
 // No depth test: seen from the centre the triangles tile the view without overlap.
 
-// Per-frame globals shared by every render pass (mirrors vlf_gpu::layout::RenderGlobals).
-struct RenderGlobals {
-    view_proj: mat4x4<f32>,
-    dir_view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    sky: vec4<f32>,
-    width: u32,
-    height: u32,
-    sample_index: u32,
-    sample_count: u32,
-    sample_weight: f32,
-    face_count: u32,
-    view: u32,
-    tonemap: u32,
-    exposure: f32,
-    encode_srgb: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
+#import "common/render_globals.wgsl"
 
-@group(0) @binding(0) var<uniform> g: RenderGlobals;
+// Group 0: `g` (common/render_globals.wgsl).
 
 // Unit positions of the 2l sphere vertices (w unused).
 @group(1) @binding(0) var<storage, read> sphere_vertices: array<vec4<f32>>;
 // Sphere triangles: three sphere-vertex ids (xyz), w unused.
 @group(1) @binding(1) var<storage, read> sphere_triangles: array<vec4<u32>>;
 
-struct VsOut {
+struct DirectionIdsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) @interpolate(flat) ids: vec4<u32>,
 }
 
 @vertex
-fn vs_main(@builtin(vertex_index) vi: u32) -> VsOut {
+fn vs_main(@builtin(vertex_index) vi: u32) -> DirectionIdsOut {
     let t = vi / 3u;
     let tri = sphere_triangles[t];
     let v = tri[vi % 3u];
-    var out: VsOut;
+    var out: DirectionIdsOut;
     out.clip = g.dir_view_proj * vec4<f32>(sphere_vertices[v].xyz, 1.0);
     out.ids = vec4<u32>(tri.xyz, t);
     return out;
 }
 
 @fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<u32> {
+fn fs_main(in: DirectionIdsOut) -> @location(0) vec4<u32> {
     return in.ids;
 }

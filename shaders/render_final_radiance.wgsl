@@ -24,29 +24,12 @@
 // sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
 // pixel holds the mean over its square.
 
-// Per-frame globals shared by every render pass (mirrors vlf_gpu::layout::RenderGlobals).
-struct RenderGlobals {
-    view_proj: mat4x4<f32>,
-    dir_view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    sky: vec4<f32>,
-    width: u32,
-    height: u32,
-    sample_index: u32,
-    sample_count: u32,
-    sample_weight: f32,
-    face_count: u32,
-    view: u32,
-    tonemap: u32,
-    exposure: f32,
-    encode_srgb: u32,
-    _pad0: u32,
-    _pad1: u32,
-}
+#import "common/render_globals.wgsl"
+#import "common/fullscreen.wgsl"
+#import "common/display_mapping.wgsl"
 
-@group(0) @binding(0) var<uniform> g: RenderGlobals;
+// Group 0: `g` (common/render_globals.wgsl).
 
-const NO_FACE: u32 = 0xffffffffu;
 const FACE_DIFFUSE: u32 = 0u;
 // Must match upload.rs.
 const ATLAS_WIDTH: u32 = 4096u;
@@ -230,46 +213,9 @@ fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) 
     return out;
 }
 
-// ---- begin display mapping (identical in render_display.wgsl; a unit test checks) ----
-// Narkowicz's fitted ACES filmic curve with his 0.6 pre-exposure: the same curve as
-// vlf_core::image::aces (PNG stills, HDR-FLIP), so the window shows what a PNG would.
-fn aces(v: vec3<f32>) -> vec3<f32> {
-    let x = max(v, vec3<f32>(0.0)) * 0.6;
-    let y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14);
-    return clamp(y, vec3<f32>(0.0), vec3<f32>(1.0));
-}
-
-fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
-    let lo = c * 12.92;
-    let hi = 1.055 * pow(max(c, vec3<f32>(0.0)), vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, c <= vec3<f32>(0.0031308));
-}
-
-// Radiance → displayed colour: exposure, tonemap.
-fn tonemap(radiance: vec3<f32>) -> vec3<f32> {
-    let l = radiance * g.exposure;
-    if g.tonemap == 1u {
-        return clamp(l, vec3<f32>(0.0), vec3<f32>(1.0));
-    } else if g.tonemap == 2u {
-        return aces(l);
-    }
-    return l;
-}
-
-// Colour → target encoding.
-fn encode(c: vec3<f32>) -> vec4<f32> {
-    if g.encode_srgb != 0u {
-        return vec4<f32>(srgb_encode(clamp(c, vec3<f32>(0.0), vec3<f32>(1.0))), 1.0);
-    }
-    return vec4<f32>(c, 1.0);
-}
-// ---- end display mapping ----
-
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
-    let x = f32(i32(vi & 1u) * 4 - 1);
-    let y = f32(i32(vi >> 1u) * 4 - 1);
-    return vec4<f32>(x, y, 0.0, 1.0);
+    return fullscreen_vertex(vi);
 }
 
 fn shade(frag: vec4<f32>) -> vec4<f32> {
@@ -317,5 +263,5 @@ struct Presented {
 @fragment
 fn fs_present(@builtin(position) frag: vec4<f32>) -> Presented {
     let s = shade(frag);
-    return Presented(s, encode(tonemap(s.rgb)));
+    return Presented(s, encode(tonemap(s.rgb, g.exposure, g.tonemap), g.encode_srgb));
 }

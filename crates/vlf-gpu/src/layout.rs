@@ -1,8 +1,11 @@
 //! The one source of truth for data shared between Rust and WGSL.
 //!
-//! Each `#[repr(C)]` struct here mirrors a WGSL struct of the same name. The test
-//! `rust_structs_match_wgsl` parses the shaders with naga and checks size and alignment of every
-//! registered pair, so a field added on one side only fails `cargo test`.
+//! Each `#[repr(C)]` struct here (and the few `vlf_core` keeps next to their CPU users) mirrors a
+//! WGSL struct of the same name, defined once: in `shaders/common/` when several shaders use it.
+//! [`registry`] lists every such struct once with that file; the test `rust_structs_match_wgsl`
+//! lays the file out with naga and compares every member's name, order, offset and size and the
+//! struct's size and alignment, so a field added, resized or reordered on one side only fails
+//! `cargo test`.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -252,94 +255,100 @@ pub struct PatchTerm {
     pub albedo: [f32; 4],
 }
 
-/// (WGSL struct name, shader file, Rust size, Rust alignment) for every shared struct.
-pub fn registry() -> Vec<(&'static str, &'static str, usize, usize)> {
-    use vlf_core::lightfield::{BakeFace, BakeTriangle};
-    type Entry = (&'static str, &'static str, usize, usize);
-    fn entry<T>(name: &'static str, file: &'static str) -> Entry {
-        let (size, align) = (std::mem::size_of::<T>(), std::mem::align_of::<T>());
-        (name, file, size, align)
-    }
-    let mut reg = vec![entry::<SmokeParams>("SmokeParams", "smoke.wgsl")];
-    // Every render shader declares its own copy of the globals (WGSL has no includes): check each.
-    for file in crate::render::SHADER_FILES {
-        reg.push(entry::<RenderGlobals>("RenderGlobals", file));
-    }
-    reg.extend([
-        entry::<BakeTriangle>("BakeTriangle", "render_face_id.wgsl"),
-        entry::<BakeTriangle>("BakeTriangle", "render_position.wgsl"),
-    ]);
-    reg.push(entry::<ReflectItem>("ReflectItem", "bake_reflect.wgsl"));
-    reg.push(entry::<BakeFace>("BakeFace", "bake_reflect.wgsl"));
-    reg.push(entry::<Crossing>("Crossing", "bake_reflect.wgsl"));
-    for file in [
-        "bake_cells.wgsl",
-        "bake_interface.wgsl",
-        "bake_gather.wgsl",
-        "bake_reflect.wgsl",
-    ] {
-        reg.push(entry::<BakeDirection>("BakeDirection", file));
-        reg.push(entry::<CellEntry>("CellEntry", file));
-    }
-    reg.push(entry::<BakeTriangle>("BakeTriangle", "bake_cells.wgsl"));
-    reg.push(entry::<BakeFace>("BakeFace", "bake_interface.wgsl"));
-    reg.push(entry::<BakeFace>("BakeFace", "bake_gather.wgsl"));
-    reg.push(entry::<Crossing>("Crossing", "bake_interface.wgsl"));
-    reg.push(entry::<Crossing>("Crossing", "bake_gather.wgsl"));
-    reg.push(entry::<TexelAccum>("TexelAccum", "bake_gather.wgsl"));
-    {
-        use vlf_core::pathtrace::{BvhNode, Hit, Ray, RtTriangle};
-        for file in ["raytrace_engine.wgsl", "raytrace_path.wgsl"] {
-            reg.push(entry::<BvhNode>("BvhNode", file));
-            reg.push(entry::<RtTriangle>("RtTriangle", file));
-            reg.push(entry::<Ray>("Ray", file));
-            reg.push(entry::<Hit>("Hit", file));
-            reg.push(entry::<RtBatch>("RtBatch", file));
-            reg.push(entry::<RtQueue>("RtQueue", file));
+/// A Rust field of a shared struct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Field {
+    pub name: &'static str,
+    /// `offset_of!` the field.
+    pub offset: usize,
+    pub size: usize,
+}
+
+/// A `#[repr(C)]` struct shared with WGSL and the one WGSL file that defines its mirror.
+#[derive(Clone, Debug)]
+pub struct SharedStruct {
+    /// Name of the WGSL struct (equal to the Rust one).
+    pub name: &'static str,
+    /// The file under `shaders/` that defines it (`common/…` when several shaders use it).
+    pub file: &'static str,
+    pub size: usize,
+    pub align: usize,
+    /// Every field, in declaration order.
+    pub fields: Vec<Field>,
+}
+
+/// Size of the field `get` projects to (no value needed).
+fn field_size<T, F>(_get: fn(&T) -> &F) -> usize {
+    std::mem::size_of::<F>()
+}
+
+/// `shared!(Type in "file.wgsl" { field, … })`: a [`SharedStruct`] entry listing every field.
+macro_rules! shared {
+    ($t:ident in $file:literal { $($f:ident),+ $(,)? }) => {
+        SharedStruct {
+            name: stringify!($t),
+            file: $file,
+            size: std::mem::size_of::<$t>(),
+            align: std::mem::align_of::<$t>(),
+            fields: vec![$(Field {
+                name: stringify!($f),
+                offset: std::mem::offset_of!($t, $f),
+                size: field_size(|s: &$t| &s.$f),
+            }),+],
         }
-        reg.push(entry::<RtGlobals>("RtGlobals", "raytrace_path.wgsl"));
-        reg.push(entry::<RtPath>("RtPath", "raytrace_path.wgsl"));
-    }
-    reg.push(entry::<RadiosityGlobals>(
-        "RadiosityGlobals",
-        "radiosity_jacobi.wgsl",
-    ));
-    reg.push(entry::<PatchTerm>("PatchTerm", "radiosity_jacobi.wgsl"));
-    reg
+    };
+}
+
+/// Every struct shared between Rust and WGSL, each once, with the file that defines its WGSL
+/// mirror. The test `rust_structs_match_wgsl` compares each field's name, order, offset and
+/// size, and the struct's size and alignment, with naga's layout of that file.
+pub fn registry() -> Vec<SharedStruct> {
+    use vlf_core::lightfield::{BakeFace, BakeTriangle};
+    use vlf_core::pathtrace::{BvhNode, Hit, Ray, RtTriangle};
+    vec![
+        shared!(SmokeParams in "smoke.wgsl" { a, b, count, _pad }),
+        shared!(RenderGlobals in "common/render_globals.wgsl" {
+            view_proj, dir_view_proj, eye, sky, width, height, sample_index, sample_count,
+            sample_weight, face_count, view, tonemap, exposure, encode_srgb, _pad0, _pad1,
+        }),
+        shared!(BakeDirection in "common/bake_direction.wgsl" {
+            u, v, w, sun, weight, n, tile, k_max, bin_base, tiles_per_side, active_texels,
+            is_sun, spec_plus_v, spec_plus_w, spec_minus_v, spec_minus_w, sky, tiles_l, tile_m,
+            words_per_slot, face_slot_off, index_start_off, tile_ids_off, coverage_off,
+            tile_values_off, items_base, items_count, has_tiles, _pad,
+        }),
+        shared!(BakeTriangle in "common/bake_scene.wgsl" { p0, face, p1, _pad0, p2, _pad1 }),
+        shared!(BakeFace in "common/bake_scene.wgsl" {
+            normal, offset, origin, texel_size, u, width, v, height, texel_base, kind, specular,
+            _pad,
+        }),
+        shared!(CellEntry in "common/bake_rays.wgsl" { depth, face }),
+        shared!(Crossing in "common/bake_rays.wgsl" { below, above }),
+        shared!(TexelAccum in "bake_gather.wgsl" { irradiance, open }),
+        shared!(ReflectItem in "bake_reflect.wgsl" { weight, slot, face, j, senses }),
+        shared!(Ray in "common/rays.wgsl" { origin, tmin, dir, tmax }),
+        shared!(Hit in "common/rays.wgsl" { t, tri, u, v }),
+        shared!(RtBatch in "common/rays.wgsl" {
+            queue, base, next_queue, next_base, shadow_base, _pad0, _pad1, _pad2,
+        }),
+        shared!(RtQueue in "common/rays.wgsl" { count, _pad0, _pad1, _pad2 }),
+        shared!(BvhNode in "common/bvh.wgsl" { min, index, max, count }),
+        shared!(RtTriangle in "common/bvh.wgsl" { p0, material, p1, prim, p2, light }),
+        shared!(RtGlobals in "raytrace_path.wgsl" {
+            cam_pos, cam_forward, cam_right, cam_up, sky, width, height, seed, sample_base,
+            samples_per_wave, path_count, tiles_x, max_groups, mat_base, emitter_base,
+            emitter_count, sun_base, sun_count, tex_base, spp, rr_depth, tile_base, tile_count,
+            _pad0, _pad1,
+        }),
+        shared!(RtPath in "raytrace_path.wgsl" {
+            throughput, slot, rng_state, rng_inc, depth, pdf,
+        }),
+        shared!(RadiosityGlobals in "radiosity_jacobi.wgsl" {
+            patches, groups_x, partial_count, max_iterations, threshold, _pad0, _pad1, _pad2,
+        }),
+        shared!(PatchTerm in "radiosity_jacobi.wgsl" { source, albedo }),
+    ]
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::shaders::ALL;
-    use wgpu::naga;
-
-    #[test]
-    fn rust_structs_match_wgsl() {
-        let reg = registry();
-        assert!(!reg.is_empty());
-        for (name, file, size, align) in reg {
-            let shader = ALL
-                .iter()
-                .find(|s| s.file == file)
-                .unwrap_or_else(|| panic!("{file} not registered"));
-            let module = shader.validate().unwrap();
-            let mut layouter = naga::proc::Layouter::default();
-            layouter.update(module.to_ctx()).unwrap();
-            let (handle, ty) = module
-                .types
-                .iter()
-                .find(|(_, t)| t.name.as_deref() == Some(name))
-                .unwrap_or_else(|| panic!("struct {name} not found in {file}"));
-            let naga::TypeInner::Struct { span, .. } = ty.inner else {
-                panic!("{name} in {file} is not a struct");
-            };
-            assert_eq!(span as usize, size, "size of {name} (WGSL {file} vs Rust)");
-            let wgsl_align = layouter[handle].alignment.round_up(1) as usize;
-            assert!(
-                wgsl_align <= 16 && size % wgsl_align == 0,
-                "alignment of {name}: WGSL {wgsl_align}, Rust {align}, size {size}"
-            );
-        }
-    }
-}
+mod tests;

@@ -2,7 +2,8 @@
 //!
 //! * [`device`]: adapter/device creation with explicit features and limits, working on real GPUs
 //!   and on Mesa's lavapipe; errors name exactly what the adapter lacks.
-//! * [`shaders`]: the registry of every WGSL file under `shaders/`, embedded at compile time.
+//! * [`shaders`]: the registry of every WGSL file under `shaders/`, embedded at compile time, and
+//!   the `#import "common/NAME.wgsl"` resolver that keeps each shared definition in one file.
 //! * [`layout`]: the one source of truth for structs shared between Rust and WGSL.
 //! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
 //! * [`render`]: the viewer's five render passes (paper §4) and headless stills.

@@ -54,7 +54,9 @@ impl RayEngine {
             entries: &[
                 storage_entry(0, true),
                 storage_entry(1, false),
-                storage_entry(2, true),
+                // Read only, but `RtQueue::count` is atomic (the path tracer appends to the same
+                // queues), and WGSL atomics need read_write storage.
+                storage_entry(2, false),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -133,27 +133,23 @@ pub(crate) fn uniform_entry<T>(binding: u32, dynamic: bool) -> wgpu::BindGroupLa
 
 #[cfg(test)]
 mod tests {
-    /// The traversal code is duplicated in both WGSL files (WGSL has no includes); keep the
-    /// copies identical.
+    use crate::shaders::{self, constant};
+    use wgpu::naga::Literal;
+
+    /// The WGSL traversal stack holds what the CPU's depth bound allows, and the WGSL `NONE` is
+    /// the CPU's.
     #[test]
-    fn shared_traversal_is_identical() {
-        let section = |src: &str| {
-            let a = src.find("// BEGIN SHARED TRAVERSAL").expect("begin marker");
-            let b = src.find("// END SHARED TRAVERSAL").expect("end marker");
-            src[a..b].to_owned()
-        };
+    fn traversal_constants_match_vlf_core() {
+        let module = shaders::COMMON_BVH.validate().unwrap();
+        let depth = u32::try_from(vlf_core::pathtrace::bvh::MAX_DEPTH).unwrap();
         assert_eq!(
-            section(crate::shaders::RAYTRACE_ENGINE.source),
-            section(crate::shaders::RAYTRACE_PATH.source),
-            "the BVH traversal in raytrace_engine.wgsl and raytrace_path.wgsl differ"
+            constant(&module, "BVH_STACK"),
+            Some(Literal::U32(depth)),
+            "common/bvh.wgsl: BVH_STACK must equal vlf_core's MAX_DEPTH"
         );
-        let stack = format!(
-            "const BVH_STACK: u32 = {}u;",
-            vlf_core::pathtrace::bvh::MAX_DEPTH
-        );
-        assert!(
-            crate::shaders::RAYTRACE_ENGINE.source.contains(&stack),
-            "the WGSL traversal stack must match vlf_core's MAX_DEPTH ({stack})"
+        assert_eq!(
+            constant(&module, "NONE"),
+            Some(Literal::U32(vlf_core::pathtrace::NONE))
         );
     }
 }

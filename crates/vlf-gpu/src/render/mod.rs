@@ -67,16 +67,6 @@ use upload::GpuLightField;
 /// Face id written where no surface is seen.
 pub const NO_FACE: u32 = u32::MAX;
 
-/// Every WGSL file of the renderer (each declares its own copy of `RenderGlobals`).
-pub const SHADER_FILES: [&str; 6] = [
-    "render_direction_ids.wgsl",
-    "render_barycentrics.wgsl",
-    "render_face_id.wgsl",
-    "render_position.wgsl",
-    "render_final_radiance.wgsl",
-    "render_display.wgsl",
-];
-
 /// The five passes, in order; also the debug-view selector.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[repr(u32)]
@@ -821,44 +811,4 @@ fn geometry_pipeline(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::upload::{ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW};
-    use crate::shaders;
-
-    fn block<'a>(source: &'a str, begin: &str, end: &str) -> &'a str {
-        let i = source.find(begin).expect("begin marker");
-        let j = source[i..].find(end).expect("end marker") + i;
-        &source[source[i..].find('\n').unwrap() + i..j]
-    }
-
-    /// The window's fused display (pass 5) and the display pass map radiance to colour alike.
-    #[test]
-    fn display_mapping_is_identical_in_both_shaders() {
-        let (begin, end) = (
-            "// ---- begin display mapping",
-            "// ---- end display mapping",
-        );
-        assert_eq!(
-            block(shaders::RENDER_DISPLAY.source, begin, end),
-            block(shaders::RENDER_FINAL_RADIANCE.source, begin, end)
-        );
-    }
-
-    /// The texture layouts of `upload.rs` are the ones pass 5 reads.
-    #[test]
-    fn shader_layout_constants_match_rust() {
-        let src = shaders::RENDER_FINAL_RADIANCE.source;
-        for (name, value) in [
-            ("ATLAS_WIDTH", ATLAS_WIDTH),
-            ("FACE_RECORD_TEXELS", FACE_RECORD_TEXELS),
-            ("FACES_PER_ROW", FACES_PER_ROW),
-        ] {
-            let decl = format!("const {name}: u32 = {value}u;");
-            assert!(
-                src.contains(&decl),
-                "render_final_radiance.wgsl lacks `{decl}`"
-            );
-        }
-        assert!(src.contains(&format!("const NO_FACE: u32 = 0x{:x}u;", super::NO_FACE)));
-    }
-}
+mod tests;
