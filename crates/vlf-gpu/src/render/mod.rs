@@ -42,6 +42,7 @@ pub mod direction_ids;
 pub mod display;
 pub mod face_id;
 pub mod final_radiance;
+mod pipelines;
 pub mod position;
 pub mod targets;
 pub mod timing;
@@ -63,6 +64,10 @@ use position::PositionPass;
 use targets::Targets;
 use timing::GpuTimer;
 use upload::GpuLightField;
+
+// Helpers of the pass modules, which reach them as `super::…`.
+pub(crate) use pipelines::{color_attachment, storage_entry, texture_entry};
+use pipelines::{geometry_pass_layout, geometry_pipeline, sphere_pass_layout, sphere_pipeline};
 
 /// Face id written where no surface is seen.
 pub const NO_FACE: u32 = u32::MAX;
@@ -622,192 +627,6 @@ impl Renderer {
     pub fn globals_layout(&self) -> &wgpu::BindGroupLayout {
         &self.globals_layout
     }
-}
-
-// ----- helpers shared by the pass modules (each pass still owns its objects and labels) -----
-
-pub(crate) fn color_attachment(
-    view: &wgpu::TextureView,
-    clear: wgpu::Color,
-) -> wgpu::RenderPassColorAttachment<'_> {
-    wgpu::RenderPassColorAttachment {
-        view,
-        depth_slice: None,
-        resolve_target: None,
-        ops: wgpu::Operations {
-            load: wgpu::LoadOp::Clear(clear),
-            store: wgpu::StoreOp::Store,
-        },
-    }
-}
-
-pub(crate) fn storage_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    read_only: bool,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-pub(crate) fn texture_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    sample_type: wgpu::TextureSampleType,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Texture {
-            sample_type,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-/// Group-1 layout and bind group of a sphere-mesh pass (1, 2): vertices, triangles.
-fn sphere_pass_layout(
-    device: &wgpu::Device,
-    pass: &str,
-    lf: &GpuLightField,
-) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
-    let vis = wgpu::ShaderStages::VERTEX;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(&format!("{pass}::pass_layout")),
-        entries: &[storage_entry(0, vis, true), storage_entry(1, vis, true)],
-    });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(&format!("{pass}::pass_bind_group")),
-        layout: &layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: lf.sphere_vertices.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: lf.sphere_triangles.as_entire_binding(),
-            },
-        ],
-    });
-    (layout, bind_group)
-}
-
-/// Group-1 layout and bind group of a scene-geometry pass (3, 4): triangles.
-fn geometry_pass_layout(
-    device: &wgpu::Device,
-    pass: &str,
-    lf: &GpuLightField,
-) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(&format!("{pass}::pass_layout")),
-        entries: &[storage_entry(0, wgpu::ShaderStages::VERTEX, true)],
-    });
-    let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(&format!("{pass}::pass_bind_group")),
-        layout: &layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: lf.triangles.as_entire_binding(),
-        }],
-    });
-    (layout, bind_group)
-}
-
-/// A vertex-pulling render pipeline (no vertex buffers, no culling) writing one colour target.
-fn render_pipeline(
-    device: &wgpu::Device,
-    pass: &str,
-    shader: &crate::shaders::Shader,
-    globals_layout: &wgpu::BindGroupLayout,
-    pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
-    depth: Option<wgpu::DepthStencilState>,
-) -> wgpu::RenderPipeline {
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(&format!("{pass}::pipeline_layout")),
-        bind_group_layouts: &[Some(globals_layout), Some(pass_layout)],
-        immediate_size: 0,
-    });
-    let module = shader.module(device);
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(&format!("{pass}::pipeline")),
-        layout: Some(&layout),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: depth,
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
-fn sphere_pipeline(
-    device: &wgpu::Device,
-    pass: &str,
-    shader: &crate::shaders::Shader,
-    globals_layout: &wgpu::BindGroupLayout,
-    pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
-) -> wgpu::RenderPipeline {
-    render_pipeline(
-        device,
-        pass,
-        shader,
-        globals_layout,
-        pass_layout,
-        format,
-        None,
-    )
-}
-
-fn geometry_pipeline(
-    device: &wgpu::Device,
-    pass: &str,
-    shader: &crate::shaders::Shader,
-    globals_layout: &wgpu::BindGroupLayout,
-    pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
-    depth: wgpu::DepthStencilState,
-) -> wgpu::RenderPipeline {
-    render_pipeline(
-        device,
-        pass,
-        shader,
-        globals_layout,
-        pass_layout,
-        format,
-        Some(depth),
-    )
 }
 
 #[cfg(test)]
