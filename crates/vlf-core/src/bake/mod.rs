@@ -157,13 +157,17 @@ pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeEr
 /// Fills every uncovered texel (area 0) of each chart side with the mean of its covered
 /// 8-neighbours, repeated outward (two rings are enough for bilinear filtering).
 pub fn dilate(prep: &BakeScene, radiance: &mut [[f32; 4]]) {
+    let filled: Vec<bool> = prep.texel_area.iter().map(|a| *a > 0.0).collect();
+    dilate_where(prep, radiance, &filled);
+}
+
+/// [`dilate`] with the texels that hold a value given by `filled` (per texel of `prep`).
+pub fn dilate_where(prep: &BakeScene, radiance: &mut [[f32; 4]], filled: &[bool]) {
     for f in &prep.faces {
         let (w, h) = (f.width as usize, f.height as usize);
         for side in 0..2 {
             let base = f.texel_base as usize + side * w * h;
-            let mut filled: Vec<bool> = (0..w * h)
-                .map(|i| prep.texel_area[base + i] > 0.0)
-                .collect();
+            let mut filled: Vec<bool> = filled[base..base + w * h].to_vec();
             for _ring in 0..2 {
                 let snapshot = filled.clone();
                 for y in 0..h {

@@ -52,7 +52,11 @@ impl BakeScene {
     pub fn new(scene: &Scene, params: &BakeParams) -> Result<Self, ParamsError> {
         params.validate()?;
         let cell = 2.0 / params.resolution as f32;
-        let texel_size = cell * params.texel_scale;
+        Self::with_texel_size(scene, cell * params.texel_scale)
+    }
+
+    /// Prepares `scene` with atlas texels of edge `texel_size` (VLF units).
+    pub fn with_texel_size(scene: &Scene, texel_size: f32) -> Result<Self, ParamsError> {
         let xf = scene.to_vlf;
         let warnings = Vec::new();
 

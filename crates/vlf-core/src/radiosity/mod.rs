@@ -185,8 +185,22 @@ pub fn to_light_field(
             f64::from(e.x + e.y + e.z) * std::f64::consts::PI * f64::from(*a)
         })
         .sum();
+    // Irradiance from the solved radiance: B = L_e + ρE/π (zero where the albedo is zero).
+    let irradiance = solution
+        .radiance
+        .iter()
+        .zip(&prep.emission)
+        .zip(&prep.albedo)
+        .map(|((b, e), rho)| {
+            let (b, e, rho) = (Vec4::from(*b), Vec4::from(*e), Vec4::from(*rho));
+            let r = (b - e).max(Vec4::ZERO) * std::f32::consts::PI;
+            let div = |x: f32, y: f32| if y > 0.0 { x / y } else { 0.0 };
+            [div(r.x, rho.x), div(r.y, rho.y), div(r.z, rho.z), 0.0]
+        })
+        .collect();
     let propagated = reference::Propagated {
         radiance: solution.radiance.clone(),
+        irradiance,
         tiles: None,
         iterations: solution.iterations,
         energy: reference::EnergyStats {

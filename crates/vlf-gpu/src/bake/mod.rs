@@ -664,6 +664,7 @@ pub fn propagate_with(
     let mut total_tiles = vec![[0f32; 4]; tile_len];
     let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
+    let mut irradiance = vec![[0f32; 4]; n_tex];
     let mut energy = EnergyStats {
         emitted: scene
             .emitted_power()
@@ -761,8 +762,15 @@ pub fn propagate_with(
             })
             .collect();
         let sky = if first { params.sky } else { glam::Vec3::ZERO };
-        let mut e =
-            reference::finish_iteration(scene, &tex_face, &acc_host, &unshot_host, sky, &mut next);
+        let mut e = reference::finish_iteration(
+            scene,
+            &tex_face,
+            &acc_host,
+            &unshot_host,
+            sky,
+            &mut next,
+            &mut irradiance,
+        );
         if let Some(sp) = &spec {
             let mut next_tiles_host: Vec<[f32; 4]> =
                 read_buffer(device, &ctx.queue, &next_tiles).map_err(|_| GpuBakeError::Readback)?;
@@ -795,6 +803,7 @@ pub fn propagate_with(
     }
     Ok(Propagated {
         radiance: total,
+        irradiance,
         tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,
         energy,

@@ -93,6 +93,7 @@ pub fn finish_iteration(
     unshot: &[[f32; 4]],
     sky: Vec3,
     next: &mut [[f32; 4]],
+    irradiance: &mut [[f32; 4]],
 ) -> IterationEnergy {
     let mut e = IterationEnergy::default();
     for t in 0..scene.texel_count() {
@@ -108,6 +109,7 @@ pub fn finish_iteration(
         let e_surf = a.irradiance.truncate() * k;
         let e_inj = sky * (a.open.w * k) + a.open.truncate();
         let irr = e_surf + e_inj;
+        irradiance[t] = (Vec4::from(irradiance[t]) + irr.extend(0.0)).into();
         let rho = Vec4::from(scene.albedo[t]).truncate();
         let b = rho * irr;
         // The specular part leaves through the tiles (their power is counted from the tiles).

@@ -60,6 +60,9 @@ use energy::power;
 pub struct Propagated {
     /// Total outgoing radiance per texel (rgb, a = 0).
     pub radiance: Vec<[f32; 4]>,
+    /// Total irradiance per texel (rgb, a = 0), all iterations: what arrived at each texel side
+    /// from surfaces, sky and suns (the final gather reads the converged field through it).
+    pub irradiance: Vec<[f32; 4]>,
     /// Sparse tiles of non-diffuse faces and their total outgoing radiance (specular part).
     pub tiles: Option<(TileIndex, Vec<[f32; 4]>)>,
     pub iterations: u32,
@@ -124,6 +127,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
     let mut unshot = scene.emission.clone();
     let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
+    let mut irradiance = vec![[0f32; 4]; n_tex];
     let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
     let mut unshot_tiles = vec![[0f32; 4]; tile_len];
     let mut next_tiles = vec![[0f32; 4]; tile_len];
@@ -166,7 +170,15 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
                 sky,
             );
         }
-        let mut e = finish_iteration(scene, &tex_face, &acc, &unshot, sky, &mut next);
+        let mut e = finish_iteration(
+            scene,
+            &tex_face,
+            &acc,
+            &unshot,
+            sky,
+            &mut next,
+            &mut irradiance,
+        );
         if let Some(s) = &spec {
             e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
             e.next += tile_power(&s.index, &next_tiles, set, &grid);
@@ -193,6 +205,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
     }
     Propagated {
         radiance: total,
+        irradiance,
         tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,
         energy,

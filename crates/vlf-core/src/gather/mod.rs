@@ -1,0 +1,351 @@
+//! Final gather (issue 14, `docs/GATHER.md`): once propagation has converged, every texel's
+//! irradiance is computed once more by backward ray tracing, into an atlas that may be finer
+//! than the propagation's:
+//!
+//! * **direct light, sampled explicitly** at the stored atlas' resolution: area emitters
+//!   (textured ones too) by samples over their surface paired with stratified points of the
+//!   texel, with shadow rays; suns by shadow rays along their exact direction;
+//! * **indirect light by gather rays** on a coarser grid (it varies slowly): stratified
+//!   cosine-distributed rays from stratified points of the texel read the converged light field
+//!   at their first hit ([`field`]: the propagation's irradiance times the hit point's albedo,
+//!   the mirror tiles in the ray's direction), or the sky when they leave the scene. Emission
+//!   seen by a gather ray is not counted: it is the direct part.
+//!
+//! Sample points lie on the texel's own face where the texel is open ([`points`]), rays start
+//! a few ulps off the surface, and every texel has its own random stream, so the result does
+//! not depend on the thread count. This module is the specification of the GPU gather.
+
+pub mod field;
+pub mod points;
+
+use glam::{Vec2, Vec3, Vec4};
+use serde::{Deserialize, Serialize};
+
+use crate::bake::prep::BakeScene;
+use crate::bake::reference::texel_faces;
+use crate::directions::DirectionSet;
+use crate::lightfield::{ParamsError, TileIndex};
+use crate::pathtrace::geometry::offset_ray_origin;
+use crate::pathtrace::sampling::{self, Rng};
+use crate::pathtrace::{Hit, PreparedScene, Ray};
+use crate::scene::Scene;
+use field::{Tiles, chart_bilinear};
+use points::{Charts, Openness, TexelPoints};
+
+/// Settings of the final gather.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GatherParams {
+    /// Texel edge of the gathered (stored) atlas, VLF units: the resolution of direct light.
+    pub texel_size: f32,
+    /// Texel edge of the indirect-light grid, VLF units (at least `texel_size`).
+    pub indirect_texel_size: f32,
+    /// Direct-light samples per texel (a point of the texel paired with a point of a light).
+    pub direct_samples: u32,
+    /// Gather rays per texel of the indirect grid.
+    pub indirect_rays: u32,
+}
+
+/// The propagated light field the gather reads.
+pub struct Converged<'a> {
+    /// The propagation's atlas.
+    pub prep: &'a BakeScene,
+    /// Its total irradiance per texel (rgb), as propagated (not dilated).
+    pub irradiance: &'a [[f32; 4]],
+    /// Mirror tiles and their total outgoing radiance, if the scene has non-diffuse faces.
+    pub tiles: Option<(&'a TileIndex, &'a [[f32; 4]])>,
+    pub directions: &'a DirectionSet,
+    /// Sky radiance.
+    pub sky: Vec3,
+}
+
+/// What the gather produced.
+pub struct Gathered {
+    /// The gathered atlas (charts of edge [`GatherParams::texel_size`]).
+    pub atlas: BakeScene,
+    /// Irradiance per texel of `atlas` (rgb, a = 0), direct + indirect; texels that are off
+    /// their face or enclosed are filled from open neighbours.
+    pub irradiance: Vec<[f32; 4]>,
+    pub stats: GatherStats,
+}
+
+/// Bookkeeping of a gather (`vlf-bake bake --json`, `gather`). Powers are Σ E·area over texel
+/// sides (VLF units², summed over r, g, b).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct GatherStats {
+    /// Texels of the gathered atlas, covered ones, and covered ones found entirely enclosed.
+    pub texels: usize,
+    pub covered_texels: usize,
+    pub enclosed_texels: usize,
+    /// Texels of the indirect grid.
+    pub indirect_texels: usize,
+    pub direct_power: f64,
+    pub indirect_power: f64,
+    /// The same sum over the propagation's atlas (what the light field alone would store).
+    pub propagated_power: f64,
+}
+
+impl GatherStats {
+    /// (direct + indirect) / propagated − 1: how far the gather moved the received power.
+    pub fn relative_difference(&self) -> f64 {
+        if self.propagated_power <= 0.0 {
+            return 0.0;
+        }
+        (self.direct_power + self.indirect_power) / self.propagated_power - 1.0
+    }
+}
+
+/// Texels handed to a worker at a time.
+const CHUNK: usize = 64;
+/// Stream selectors of the per-texel random generators.
+const STREAM_INDIRECT: u32 = 1;
+const STREAM_DIRECT: u32 = 2;
+const SEED: u32 = 0x6a7e_5eed;
+
+struct Gatherer<'a> {
+    scene: &'a Scene,
+    ps: PreparedScene<'a>,
+    field: &'a Converged<'a>,
+    /// The propagation's irradiance, dilated for bilinear reads.
+    e_prop: Vec<[f32; 4]>,
+    tiles: Option<Tiles<'a>>,
+}
+
+impl Gatherer<'_> {
+    /// Radiance arriving along `dir` from the first hit `hit` (world), emission excluded.
+    fn field_radiance(&self, dir: Vec3, hit: &Hit) -> Vec3 {
+        let tri = &self.ps.bvh.triangles[hit.tri as usize];
+        let st = &self.scene.triangles[tri.prim as usize];
+        let [p0, p1, p2] = tri.corners();
+        let pw = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+        let p = self.scene.to_vlf.apply(pw);
+        let f = &self.field.prep.faces[st.face as usize];
+        let side = if f.normal().dot(-dir) >= 0.0 { 0 } else { 1 };
+        let m = &self.scene.materials[st.material as usize];
+        let uv = {
+            let uv = &self.ps.uvs[hit.tri as usize];
+            uv[0] * (1.0 - hit.u - hit.v) + uv[1] * hit.u + uv[2] * hit.v
+        };
+        let mut rho = m.diffuse_albedo();
+        if let Some(t) = m.base_color_texture {
+            rho *= self.scene.textures[t.index as usize]
+                .bilinear(uv)
+                .truncate();
+        }
+        let mut l = rho * std::f32::consts::FRAC_1_PI * chart_bilinear(f, &self.e_prop, side, p);
+        if let Some(tiles) = &self.tiles {
+            l += tiles.radiance_towards(st.face, f.normal(), p, -dir);
+        }
+        l
+    }
+
+    /// Indirect irradiance of texel `t` of the grid behind `pts`, or `None` when it has no open
+    /// point.
+    fn indirect(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<Vec3> {
+        let mut rng = Rng::for_path(SEED, t as u32, STREAM_INDIRECT);
+        let mut points = Vec::with_capacity(rays as usize);
+        let n = pts.sample(t, rays, &mut rng, &mut points);
+        if points.is_empty() {
+            return None;
+        }
+        let strata = shuffled_strata(rays, &mut rng);
+        let mut sum = Vec3::ZERO;
+        for (k, &p) in points.iter().enumerate() {
+            let u = strata.point(k, &mut rng);
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+            let hit =
+                self.ps
+                    .bvh
+                    .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+            sum += if hit.is_hit() {
+                self.field_radiance(dir, &hit)
+            } else {
+                self.field.sky
+            };
+        }
+        Some(sum * (std::f32::consts::PI / points.len() as f32))
+    }
+
+    /// Direct irradiance of texel `t` (emitters and suns), or `None` when it has no open point.
+    fn direct(&self, pts: &TexelPoints, t: usize, samples: u32) -> Option<Vec3> {
+        let lights = &self.ps.lights;
+        let mut rng = Rng::for_path(SEED, t as u32, STREAM_DIRECT);
+        let mut points = Vec::with_capacity(samples as usize);
+        let n = pts.sample(t, samples, &mut rng, &mut points);
+        if points.is_empty() {
+            return None;
+        }
+        let strata = shuffled_strata(samples, &mut rng);
+        let mut sum = Vec3::ZERO;
+        for (k, &p) in points.iter().enumerate() {
+            let origin = offset_ray_origin(p, n);
+            if !lights.emitters.is_empty() {
+                let e = lights.emitters[lights.pick_emitter(rng.next_f32())];
+                let u = strata.point(k, &mut rng);
+                let tri = &self.ps.bvh.triangles[e.tri as usize];
+                let [a, b, c] = tri.corners();
+                let bary = sampling::triangle_barycentrics(u);
+                let x = a * (1.0 - bary.x - bary.y) + b * bary.x + c * bary.y;
+                let nl = (b - a).cross(c - a).normalize();
+                let to = x - p;
+                let d2 = to.length_squared();
+                let wi = to / d2.sqrt();
+                let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
+                if cos_r > 0.0 && cos_l > 0.0 {
+                    let target = offset_ray_origin(x, nl);
+                    if !self
+                        .ps
+                        .bvh
+                        .occluded(&Ray::new(origin, target - origin, 1.0))
+                    {
+                        let le = self.ps.emission(e.tri, bary.x, bary.y);
+                        sum += le * (cos_r * cos_l / d2 * e.area / e.pdf);
+                    }
+                }
+            }
+            for s in &lights.suns {
+                let cos = n.dot(s.to_sun);
+                if cos > 0.0
+                    && !self
+                        .ps
+                        .bvh
+                        .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
+                {
+                    sum += s.irradiance * cos;
+                }
+            }
+        }
+        Some(sum / points.len() as f32)
+    }
+}
+
+/// A g × g grid of 2-D strata over [0, 1)² in a random order (so that a texel's point strata and
+/// its direction or light strata are paired at random).
+struct Strata {
+    g: u32,
+    order: Vec<u32>,
+}
+
+fn shuffled_strata(count: u32, rng: &mut Rng) -> Strata {
+    let g = (count.max(1) as f32).sqrt().ceil() as u32;
+    let mut order: Vec<u32> = (0..g * g).collect();
+    for i in (1..order.len()).rev() {
+        let j = (rng.next_u32() as usize) % (i + 1);
+        order.swap(i, j);
+    }
+    Strata { g, order }
+}
+
+impl Strata {
+    /// A jittered point of the stratum paired with sample `k`.
+    fn point(&self, k: usize, rng: &mut Rng) -> Vec2 {
+        let s = self.order[k % self.order.len()];
+        let j = rng.next_2d();
+        Vec2::new((s % self.g) as f32 + j.x, (s / self.g) as f32 + j.y) / self.g as f32
+    }
+}
+
+/// Σ E·area over an atlas' texels, summed over channels.
+fn power(atlas: &BakeScene, irradiance: &[[f32; 4]]) -> f64 {
+    irradiance
+        .iter()
+        .zip(&atlas.texel_area)
+        .map(|(e, a)| {
+            let e = Vec4::from(*e);
+            (f64::from(e.x) + f64::from(e.y) + f64::from(e.z)) * f64::from(*a)
+        })
+        .sum()
+}
+
+/// Runs the final gather over `field` on `threads` workers (0 = all cores).
+pub fn final_gather(
+    scene: &Scene,
+    field: &Converged,
+    gp: &GatherParams,
+    threads: usize,
+) -> Result<Gathered, ParamsError> {
+    let prep = field.prep;
+    let mut e_prop = field.irradiance.to_vec();
+    crate::bake::dilate(prep, &mut e_prop);
+    let g = Gatherer {
+        scene,
+        ps: PreparedScene::new(scene),
+        field,
+        e_prop,
+        tiles: field
+            .tiles
+            .map(|(index, values)| Tiles::new(index, values, field.directions)),
+    };
+    let xf = scene.to_vlf;
+
+    // Indirect light on the coarser grid.
+    let coarse = BakeScene::with_texel_size(scene, gp.indirect_texel_size)?;
+    let coarse_faces = texel_faces(&coarse);
+    let coarse_charts = Charts::new(scene, &coarse);
+    let open_coarse = Openness {
+        bvh: &g.ps.bvh,
+        r_close: gp.indirect_texel_size / xf.scale,
+    };
+    let coarse_pts = TexelPoints {
+        atlas: &coarse,
+        charts: &coarse_charts,
+        open: &open_coarse,
+        xf,
+        tex_face: &coarse_faces,
+    };
+    let ind: Vec<Option<Vec3>> = crate::par::map(coarse.texel_count(), threads, CHUNK, |t| {
+        g.indirect(&coarse_pts, t, gp.indirect_rays)
+    });
+    let filled: Vec<bool> = ind.iter().map(Option::is_some).collect();
+    let mut e_ind: Vec<[f32; 4]> = ind
+        .iter()
+        .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
+        .collect();
+    crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
+
+    // Direct light on the stored atlas, plus the indirect grid read at each texel.
+    let atlas = BakeScene::with_texel_size(scene, gp.texel_size)?;
+    let faces = texel_faces(&atlas);
+    let charts = Charts::new(scene, &atlas);
+    let open = Openness {
+        bvh: &g.ps.bvh,
+        r_close: gp.texel_size / xf.scale,
+    };
+    let pts = TexelPoints {
+        atlas: &atlas,
+        charts: &charts,
+        open: &open,
+        xf,
+        tex_face: &faces,
+    };
+    let dir: Vec<Option<(Vec3, Vec3)>> =
+        crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
+            let direct = g.direct(&pts, t, gp.direct_samples)?;
+            let fi = faces[t] as usize;
+            let side = (t as u32 - atlas.faces[fi].texel_base) / atlas.faces[fi].texels_per_side();
+            let p = Vec4::from(atlas.texel_center[t]).truncate();
+            Some((direct, chart_bilinear(&coarse.faces[fi], &e_ind, side, p)))
+        });
+    let mut stats = GatherStats {
+        texels: atlas.texel_count(),
+        covered_texels: atlas.texel_area.iter().filter(|a| **a > 0.0).count(),
+        indirect_texels: coarse.texel_count(),
+        propagated_power: power(prep, field.irradiance),
+        ..Default::default()
+    };
+    let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
+    stats.enclosed_texels = stats.covered_texels - filled.iter().filter(|f| **f).count();
+    let split = |pick: fn(&(Vec3, Vec3)) -> Vec3| -> Vec<[f32; 4]> {
+        dir.iter()
+            .map(|d| d.as_ref().map_or(Vec3::ZERO, pick).extend(0.0).into())
+            .collect()
+    };
+    stats.direct_power = power(&atlas, &split(|d| d.0));
+    stats.indirect_power = power(&atlas, &split(|d| d.1));
+    let mut irradiance = split(|d| d.0 + d.1);
+    crate::bake::dilate_where(&atlas, &mut irradiance, &filled);
+    Ok(Gathered {
+        atlas,
+        irradiance,
+        stats,
+    })
+}

@@ -1,0 +1,196 @@
+//! Where a texel's gather samples start: stratified points over the texel's covered area, on
+//! its own face, where the texel is *open*.
+//!
+//! A texel that straddles a nearby occluder (a lamp hung 1 mm under the ceiling, a box standing
+//! on the floor) covers two regions: one that sees the room and one enclosed between the
+//! surfaces. Averaging both makes the texel glow (or darken) around the occluder's outline, and
+//! the renderer's bilinear filter spreads that over a texel beyond it. Lightmappers test their
+//! sample points with short rays and drop the enclosed ones; so does [`Openness`]: a point is
+//! closed when a probe along its normal hits anything within `r_close` (a gap thinner than
+//! about half a texel, which the atlas cannot resolve anyway), or when it lies inside a closed
+//! solid (probes along the normal and two tilted directions all reach back faces).
+
+use glam::{Vec2, Vec3};
+
+use crate::bake::prep::BakeScene;
+use crate::pathtrace::geometry::offset_ray_origin;
+use crate::pathtrace::sampling::{self, Rng};
+use crate::pathtrace::{Bvh, Ray};
+use crate::scene::{Scene, Similarity};
+
+/// Chart-space triangles (texel units) of every face of an atlas, to tell whether a chart
+/// point lies on its face.
+pub struct Charts {
+    tris: Vec<Vec<[Vec2; 3]>>,
+}
+
+impl Charts {
+    pub fn new(scene: &Scene, atlas: &BakeScene) -> Self {
+        let xf = scene.to_vlf;
+        let tris = atlas
+            .faces
+            .iter()
+            .enumerate()
+            .map(|(fi, f)| {
+                scene
+                    .face_triangles(fi)
+                    .iter()
+                    .map(|t| t.p.map(|p| super::field::chart_coords(f, xf.apply(p))))
+                    .collect()
+            })
+            .collect();
+        Self { tris }
+    }
+
+    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
+    pub fn inside(&self, face: usize, c: Vec2) -> bool {
+        self.tris[face].iter().any(|q| {
+            let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
+            let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
+            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
+        })
+    }
+}
+
+/// The open/closed test of surface points (world space).
+pub struct Openness<'a> {
+    pub bvh: &'a Bvh,
+    /// Probes along the normal that hit anything closer than this close the point (world).
+    pub r_close: f32,
+}
+
+impl Openness<'_> {
+    /// Whether point `p` of a surface whose lit side has unit normal `n` is open.
+    pub fn is_open(&self, p: Vec3, n: Vec3) -> bool {
+        let origin = offset_ray_origin(p, n);
+        if self.bvh.occluded(&Ray::new(origin, n, self.r_close)) {
+            return false;
+        }
+        // Inside a closed solid every direction reaches a back face; one open direction or
+        // front face suffices to be outside (robust to a single surface with flipped winding).
+        let (t, b) = sampling::basis(n);
+        let tilt = |a: Vec3| (n * 0.5 + a * 0.866_025_4).normalize();
+        for d in [n, tilt(t), tilt(-t * 0.5 + b * 0.866_025_4)] {
+            let hit = self.bvh.closest_hit(&Ray::new(origin, d, f32::INFINITY));
+            if !hit.is_hit() {
+                return true;
+            }
+            let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
+            if (b - a).cross(c - a).dot(d) <= 0.0 {
+                return true; // a front face
+            }
+        }
+        false
+    }
+}
+
+/// Stratified open points of the texels of one atlas.
+pub struct TexelPoints<'a> {
+    pub atlas: &'a BakeScene,
+    pub charts: &'a Charts,
+    pub open: &'a Openness<'a>,
+    pub xf: Similarity,
+    /// Face of every texel.
+    pub tex_face: &'a [u32],
+}
+
+/// Draws per point: first inside the point's stratum, then anywhere in the texel.
+const DRAWS_IN_STRATUM: u32 = 4;
+const DRAWS_IN_TEXEL: u32 = 4;
+
+impl TexelPoints<'_> {
+    /// Face, side and chart texel of atlas texel `t`.
+    fn locate(&self, t: usize) -> (usize, u32, Vec2) {
+        let fi = self.tex_face[t] as usize;
+        let f = &self.atlas.faces[fi];
+        let local = t as u32 - f.texel_base;
+        let side = local / f.texels_per_side();
+        let i = local % f.texels_per_side();
+        (
+            fi,
+            side,
+            Vec2::new((i % f.width) as f32, (i / f.width) as f32),
+        )
+    }
+
+    /// Unit normal of the lit side of texel `t`.
+    pub fn normal(&self, t: usize) -> Vec3 {
+        let (fi, side, _) = self.locate(t);
+        let n = self.atlas.faces[fi].normal();
+        if side == 0 { n } else { -n }
+    }
+
+    fn world(&self, fi: usize, c: Vec2) -> Vec3 {
+        let f = &self.atlas.faces[fi];
+        let p = Vec3::from(f.origin)
+            + Vec3::from(f.u) * (c.x * f.texel_size)
+            + Vec3::from(f.v) * (c.y * f.texel_size);
+        self.xf.inverse(p)
+    }
+
+    /// Probes the centre and four inset corners of a texel that lie on the face: `Some(true)`
+    /// when all are open (its points need no test of their own), `Some(false)` when all are
+    /// closed (the texel is enclosed: no points), `None` when they disagree (test each point).
+    fn classify(&self, fi: usize, corner: Vec2, n: Vec3) -> Option<bool> {
+        let (mut open, mut closed) = (0, 0);
+        for (x, y) in [(0.5, 0.5), (0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)] {
+            let c = corner + Vec2::new(x, y);
+            if self.charts.inside(fi, c) {
+                if self.open.is_open(self.world(fi, c), n) {
+                    open += 1;
+                } else {
+                    closed += 1;
+                }
+            }
+        }
+        match (open, closed) {
+            (_, 0) => Some(true),
+            (0, _) => Some(false),
+            _ => None,
+        }
+    }
+
+    /// Up to `count` stratified world points on texel `t` (its face, its lit side) where the
+    /// texel is open, appended to `out`: stratum `k` of a g × g grid over the texel square
+    /// (g = ⌈√count⌉) holds point `k`, redrawn within the stratum when off the face or closed,
+    /// then anywhere in the texel; points that find no open spot are dropped. Returns the lit
+    /// side's unit normal.
+    pub fn sample(&self, t: usize, count: u32, rng: &mut Rng, out: &mut Vec<Vec3>) -> Vec3 {
+        let (fi, side, corner) = self.locate(t);
+        let n = {
+            let n = self.atlas.faces[fi].normal();
+            if side == 0 { n } else { -n }
+        };
+        if self.atlas.texel_area[t] <= 0.0 || count == 0 {
+            return n;
+        }
+        let test_each = match self.classify(fi, corner, n) {
+            Some(true) => false,
+            Some(false) => return n,
+            None => true,
+        };
+        let g = (count as f32).sqrt().ceil() as u32;
+        let inv = 1.0 / g as f32;
+        for k in 0..count {
+            let s = Vec2::new((k % g) as f32, (k / g % g) as f32);
+            for draw in 0..DRAWS_IN_STRATUM + DRAWS_IN_TEXEL {
+                let j = rng.next_2d();
+                let c = if draw < DRAWS_IN_STRATUM {
+                    corner + (s + j) * inv
+                } else {
+                    corner + j
+                };
+                if !self.charts.inside(fi, c) {
+                    continue;
+                }
+                let p = self.world(fi, c);
+                if test_each && !self.open.is_open(p, n) {
+                    continue;
+                }
+                out.push(p);
+                break;
+            }
+        }
+        n
+    }
+}
