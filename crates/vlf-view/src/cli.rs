@@ -37,8 +37,21 @@ pub struct Cli {
 
     /// glTF camera (index or name) for stills and the window's start view [default: 0; a view
     /// of the whole scene when the file has no camera].
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", conflicts_with = "look_from")]
     pub camera: Option<String>,
+
+    /// Eye `x,y,z` (world space) of a look-at camera, for scenes without a glTF camera (the
+    /// view the shared references of such scenes were rendered from). Up is +Y.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, requires = "look_at", allow_hyphen_values = true)]
+    pub look_from: Option<glam::Vec3>,
+
+    /// Target `x,y,z` (world space) of the look-at camera.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, requires = "look_from", allow_hyphen_values = true)]
+    pub look_at: Option<glam::Vec3>,
+
+    /// Vertical field of view of the look-at camera, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 60.0, requires = "look_from")]
+    pub fov: f32,
 
     /// Image / window size in pixels [default: 512x512 for stills, 1024x768 otherwise].
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
@@ -86,6 +99,15 @@ pub struct Cli {
     /// Only errors.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// `x,y,z`: three finite numbers.
+fn parse_point(s: &str) -> Result<glam::Vec3, String> {
+    let v: Result<Vec<f32>, _> = s.split(',').map(|x| x.trim().parse::<f32>()).collect();
+    match v.as_deref() {
+        Ok([x, y, z]) if [x, y, z].iter().all(|c| c.is_finite()) => Ok(glam::Vec3::new(*x, *y, *z)),
+        _ => Err(format!("expected x,y,z (three finite numbers), got `{s}`")),
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -90,6 +90,26 @@ pub fn start_camera(lf: &LightField, sel: Option<&str>) -> Result<CameraView, St
     }
 }
 
+/// A look-at camera given in world space (`fov_deg` vertical), up = +Y.
+pub fn look_at_camera(
+    lf: &LightField,
+    from: Vec3,
+    at: Vec3,
+    fov_deg: f32,
+) -> Result<CameraView, String> {
+    if !(fov_deg > 0.0 && fov_deg < 180.0) {
+        return Err(format!("--fov {fov_deg}: the field of view must lie in (0, 180) degrees"));
+    }
+    if (at - from).length_squared() <= 0.0 {
+        return Err("--look-from and --look-at are the same point".into());
+    }
+    Ok(CameraView::look_at(
+        lf.to_vlf.apply(from),
+        lf.to_vlf.apply(at),
+        fov_deg.to_radians(),
+    ))
+}
+
 /// A view of the whole unit sphere from outside (+Z side), for files without cameras.
 pub fn overview() -> CameraView {
     CameraView::look_at(Vec3::new(0.0, 0.3, 2.6), Vec3::ZERO, 50f32.to_radians())

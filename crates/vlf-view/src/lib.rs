@@ -110,7 +110,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         lf.directions.len(),
         lf.radiance_bytes() as f64 / (1 << 20) as f64
     );
-    let camera = fly::start_camera(&lf, cli.camera.as_deref()).map_err(UsageError)?;
+    let camera = match (cli.look_from, cli.look_at) {
+        (Some(from), Some(at)) => fly::look_at_camera(&lf, from, at, cli.fov).map_err(UsageError)?,
+        _ => fly::start_camera(&lf, cli.camera.as_deref()).map_err(UsageError)?,
+    };
     if let Some(out) = &cli.still {
         image_kind(out)?;
         let (w, h) = cli.size.unwrap_or((512, 512));
