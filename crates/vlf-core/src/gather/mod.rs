@@ -39,8 +39,13 @@ pub struct GatherParams {
     pub texel_size: f32,
     /// Texel edge of the indirect-light grid, VLF units (at least `texel_size`).
     pub indirect_texel_size: f32,
-    /// Direct-light samples per texel (a point of the texel paired with a point of a light).
-    pub direct_samples: u32,
+    /// Light samples per texel of the stored atlas (a point of the texel paired with a point of
+    /// an emitter, plus a shadow ray per sun).
+    pub light_samples: u32,
+    /// Cosine-distributed rays per texel of the stored atlas for the direct part they see: the
+    /// sky, and emitters (weighted against the light samples by multiple importance sampling,
+    /// which keeps emitters next to the texel from being undersampled).
+    pub direct_rays: u32,
     /// Gather rays per texel of the indirect grid.
     pub indirect_rays: u32,
 }
@@ -138,8 +143,8 @@ impl Gatherer<'_> {
         l
     }
 
-    /// Indirect irradiance of texel `t` of the grid behind `pts`, or `None` when it has no open
-    /// point.
+    /// Reflected irradiance of texel `t` of the grid behind `pts` (emission and sky, the direct
+    /// part, are left out), or `None` when it has no open point.
     fn indirect(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<Vec3> {
         let mut rng = Rng::for_path(SEED, t as u32, STREAM_INDIRECT);
         let mut points = Vec::with_capacity(rays as usize);
@@ -156,65 +161,116 @@ impl Gatherer<'_> {
                 self.ps
                     .bvh
                     .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
-            sum += if hit.is_hit() {
-                self.field_radiance(dir, &hit)
-            } else {
-                self.field.sky
-            };
+            if hit.is_hit() {
+                sum += self.field_radiance(dir, &hit);
+            }
         }
         Some(sum * (std::f32::consts::PI / points.len() as f32))
     }
 
-    /// Direct irradiance of texel `t` (emitters and suns), or `None` when it has no open point.
-    fn direct(&self, pts: &TexelPoints, t: usize, samples: u32) -> Option<Vec3> {
+    /// Direct irradiance of texel `t`: emitters by light samples and cosine rays combined with
+    /// the power heuristic, suns by shadow rays, the sky by the cosine rays; `None` when the
+    /// texel has no open point.
+    fn direct(&self, pts: &TexelPoints, t: usize, gp: &GatherParams) -> Option<Vec3> {
         let lights = &self.ps.lights;
         let mut rng = Rng::for_path(SEED, t as u32, STREAM_DIRECT);
-        let mut points = Vec::with_capacity(samples as usize);
-        let n = pts.sample(t, samples, &mut rng, &mut points);
+        let count = gp.light_samples.max(gp.direct_rays).max(1);
+        let mut points = Vec::with_capacity(count as usize);
+        let n = pts.sample(t, count, &mut rng, &mut points);
         if points.is_empty() {
             return None;
         }
-        let strata = shuffled_strata(samples, &mut rng);
+        let has_emitters = !lights.emitters.is_empty();
+        let (n_l, n_b) = if has_emitters {
+            (gp.light_samples, gp.direct_rays)
+        } else {
+            (0, gp.direct_rays)
+        };
+        let (fl, fb) = (n_l as f32, n_b as f32);
         let mut sum = Vec3::ZERO;
-        for (k, &p) in points.iter().enumerate() {
+        // Light samples (stratified over the emitters' sample space, paired at random with
+        // the point strata).
+        let strata = shuffled_strata(n_l, &mut rng);
+        for k in 0..n_l as usize {
+            let p = points[k % points.len()];
+            let u = strata.point(k, &mut rng);
+            let (e, u) = lights.pick_emitter_remapped(u);
+            let tri = &self.ps.bvh.triangles[e.tri as usize];
+            let [a, b, c] = tri.corners();
+            let bary = sampling::triangle_barycentrics(u);
+            let x = a * (1.0 - bary.x - bary.y) + b * bary.x + c * bary.y;
+            let nl = (b - a).cross(c - a).normalize();
+            let to = x - p;
+            let d2 = to.length_squared();
+            let wi = to / d2.sqrt();
+            let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
+            if cos_r <= 0.0 || cos_l <= 0.0 {
+                continue;
+            }
+            let pdf_l = e.pdf / e.area * d2 / cos_l;
+            let pdf_b = cos_r * std::f32::consts::FRAC_1_PI;
+            let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
             let origin = offset_ray_origin(p, n);
-            if !lights.emitters.is_empty() {
-                let e = lights.emitters[lights.pick_emitter(rng.next_f32())];
-                let u = strata.point(k, &mut rng);
-                let tri = &self.ps.bvh.triangles[e.tri as usize];
-                let [a, b, c] = tri.corners();
-                let bary = sampling::triangle_barycentrics(u);
-                let x = a * (1.0 - bary.x - bary.y) + b * bary.x + c * bary.y;
-                let nl = (b - a).cross(c - a).normalize();
-                let to = x - p;
-                let d2 = to.length_squared();
-                let wi = to / d2.sqrt();
-                let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
-                if cos_r > 0.0 && cos_l > 0.0 {
-                    let target = offset_ray_origin(x, nl);
-                    if !self
-                        .ps
-                        .bvh
-                        .occluded(&Ray::new(origin, target - origin, 1.0))
+            let target = offset_ray_origin(x, nl);
+            if w > 0.0
+                && !self
+                    .ps
+                    .bvh
+                    .occluded(&Ray::new(origin, target - origin, 1.0))
+            {
+                let le = self.ps.emission(e.tri, bary.x, bary.y);
+                sum += le * (w * cos_r / (pdf_l * fl));
+            }
+        }
+        // Cosine rays: the sky, and emitters weighted against the light samples.
+        let strata = shuffled_strata(n_b, &mut rng);
+        for k in 0..n_b as usize {
+            let p = points[k % points.len()];
+            let u = strata.point(k, &mut rng);
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+            let hit =
+                self.ps
+                    .bvh
+                    .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+            if !hit.is_hit() {
+                sum += self.field.sky * (std::f32::consts::PI / fb);
+                continue;
+            }
+            let tri = &self.ps.bvh.triangles[hit.tri as usize];
+            if tri.light == crate::pathtrace::NONE {
+                continue;
+            }
+            let [a, b, c] = tri.corners();
+            let cos_l = -dir.dot((b - a).cross(c - a).normalize());
+            if cos_l <= 0.0 {
+                continue; // the back of an emitter
+            }
+            let pdf_b = n.dot(dir) * std::f32::consts::FRAC_1_PI;
+            let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
+            let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
+            let le = self.ps.emission(hit.tri, hit.u, hit.v);
+            sum += le * (w * std::f32::consts::PI / fb);
+        }
+        // Suns: one shadow ray per point.
+        if !lights.suns.is_empty() {
+            let mut sun = Vec3::ZERO;
+            for &p in &points {
+                let origin = offset_ray_origin(p, n);
+                for s in &lights.suns {
+                    let cos = n.dot(s.to_sun);
+                    if cos > 0.0
+                        && !self
+                            .ps
+                            .bvh
+                            .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
                     {
-                        let le = self.ps.emission(e.tri, bary.x, bary.y);
-                        sum += le * (cos_r * cos_l / d2 * e.area / e.pdf);
+                        sun += s.irradiance * cos;
                     }
                 }
             }
-            for s in &lights.suns {
-                let cos = n.dot(s.to_sun);
-                if cos > 0.0
-                    && !self
-                        .ps
-                        .bvh
-                        .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
-                {
-                    sum += s.irradiance * cos;
-                }
-            }
+            sum += sun / points.len() as f32;
         }
-        Some(sum / points.len() as f32)
+        Some(sum)
     }
 }
 
@@ -319,7 +375,7 @@ pub fn final_gather(
     };
     let dir: Vec<Option<(Vec3, Vec3)>> =
         crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
-            let direct = g.direct(&pts, t, gp.direct_samples)?;
+            let direct = g.direct(&pts, t, gp)?;
             let fi = faces[t] as usize;
             let side = (t as u32 - atlas.faces[fi].texel_base) / atlas.faces[fi].texels_per_side();
             let p = Vec4::from(atlas.texel_center[t]).truncate();

@@ -171,6 +171,7 @@ impl TexelPoints<'_> {
         };
         let g = (count as f32).sqrt().ceil() as u32;
         let inv = 1.0 / g as f32;
+        let first = out.len();
         for k in 0..count {
             let s = Vec2::new((k % g) as f32, (k / g % g) as f32);
             for draw in 0..DRAWS_IN_STRATUM + DRAWS_IN_TEXEL {
@@ -189,6 +190,15 @@ impl TexelPoints<'_> {
                 }
                 out.push(p);
                 break;
+            }
+        }
+        if out.len() == first {
+            // A sliver of the face that no draw found: its covered part's centroid.
+            let p = self
+                .xf
+                .inverse(glam::Vec4::from(self.atlas.texel_center[t]).truncate());
+            if !test_each || self.open.is_open(p, n) {
+                out.push(p);
             }
         }
         n

@@ -3,7 +3,7 @@
 //! their irradiance). One light sample is taken per vertex: an emitter with probability
 //! [`LightSet::p_emitters`], else a sun.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::geometry::RtTriangle;
 use super::material::SurfaceMaterial;
@@ -143,6 +143,16 @@ impl LightSet {
             }
         }
         lo
+    }
+
+    /// The emitter whose CDF interval holds `u.x`, and `u` with `u.x` rescaled to `[0, 1)`
+    /// within that interval: a stratified `u` stays stratified over all the emitters' area.
+    pub fn pick_emitter_remapped(&self, u: Vec2) -> (Emitter, Vec2) {
+        let i = self.pick_emitter(u.x);
+        let e = self.emitters[i];
+        let lo = e.cdf - e.pdf;
+        let x = ((u.x - lo) / e.pdf).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        (e, Vec2::new(x, u.y))
     }
 
     /// Index of the sun whose CDF interval holds `u`.
