@@ -3,9 +3,10 @@
 //! and enclosed sample points, and thread-count independence.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeParams, BakeScene, Iterations, reference};
+use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, GatherParams, Gathered, final_gather};
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
 
 /// Propagates `scene` at small settings and gathers with `gp`.
