@@ -5,7 +5,10 @@
 //! GL backend when no Vulkan driver is installed; GL lacks float32 filtering and float render
 //! targets, so the feature request below rejects it with a clear message.
 
+use std::any::{Any, TypeId};
+use std::collections::HashMap;
 use std::fmt;
+use std::sync::{Arc, Mutex};
 
 /// Features every vlf GPU path needs.
 ///
@@ -131,6 +134,8 @@ pub struct GpuContext {
     pub summary: AdapterSummary,
     /// Optional features that were available and enabled.
     pub features: wgpu::Features,
+    /// Objects made once per device and shared by every use of it ([`GpuContext::shared`]).
+    shared: Mutex<HashMap<TypeId, Arc<dyn Any + Send + Sync>>>,
 }
 
 impl GpuContext {
@@ -189,6 +194,66 @@ impl GpuContext {
             queue,
             summary,
             features,
+            shared: Mutex::default(),
+        })
+    }
+
+    /// The one `T` of this device: made by `make` on the first call, shared afterwards (the
+    /// pipelines of a pass family are created once per device and reused by every bake or
+    /// frame, as re_renderer keeps one renderer per type in its render context). Calls from
+    /// several threads wait for the first one's `make`.
+    pub fn shared<T: Any + Send + Sync>(&self, make: impl FnOnce(&GpuContext) -> T) -> Arc<T> {
+        let mut map = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        let any = map
+            .entry(TypeId::of::<T>())
+            .or_insert_with(|| Arc::new(make(self)))
+            .clone();
+        any.downcast::<T>().expect("keyed by its TypeId")
+    }
+
+    /// Runs `f` with the GPU's errors trapped: an out-of-memory, validation or internal error
+    /// raised on this thread while `f` runs (wgpu error scopes), or a lost device, becomes a
+    /// [`GpuFault`] instead of wgpu's default panic. The first error of each kind is kept; a
+    /// lost device outranks out-of-memory, which outranks the others. `f`'s own result is
+    /// returned only when the GPU reported nothing.
+    pub fn trap<T>(&self, f: impl FnOnce() -> T) -> Result<T, GpuFault> {
+        let lost: Arc<Mutex<Option<String>>> = Arc::default();
+        let l = lost.clone();
+        self.device.set_device_lost_callback(move |reason, msg| {
+            let mut g = l.lock().unwrap_or_else(|p| p.into_inner());
+            g.get_or_insert_with(|| format!("{reason:?}: {msg}"));
+        });
+        let scopes = [
+            wgpu::ErrorFilter::OutOfMemory,
+            wgpu::ErrorFilter::Validation,
+            wgpu::ErrorFilter::Internal,
+        ]
+        .map(|filter| self.device.push_error_scope(filter));
+        let out = f();
+        // Scopes pop innermost first.
+        let mut errors: Vec<wgpu::Error> = scopes
+            .into_iter()
+            .rev()
+            .filter_map(|s| pollster::block_on(s.pop()))
+            .collect();
+        errors.reverse();
+        if let Some(detail) = lost.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            return Err(GpuFault::DeviceLost { detail });
+        }
+        let Some(first) = errors
+            .iter()
+            .find(|e| is_out_of_memory(e))
+            .or(errors.first())
+        else {
+            return Ok(out);
+        };
+        let kind = error_kind(first);
+        let message = first.to_string();
+        log::debug!("wgpu error ({kind}): {message}");
+        Err(if is_out_of_memory(first) {
+            GpuFault::OutOfMemory { detail: message }
+        } else {
+            GpuFault::Error { kind, message }
         })
     }
 
@@ -197,6 +262,34 @@ impl GpuContext {
         // An error here means the device was lost; later calls report it properly.
         let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
     }
+}
+
+/// What the GPU reported while [`GpuContext::trap`] ran its closure.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuFault {
+    #[error("the GPU ran out of memory ({detail})")]
+    OutOfMemory { detail: String },
+    #[error("the GPU device was lost ({detail})")]
+    DeviceLost { detail: String },
+    /// Any other error (a validation error is a bug in vlf); `kind` names wgpu's variant.
+    #[error("{kind}: {message}")]
+    Error { kind: String, message: String },
+}
+
+/// The variant name of a wgpu error (`OutOfMemory`, `Validation`, `Internal`).
+fn error_kind(e: &wgpu::Error) -> String {
+    format!("{e:?}")
+        .split(|c: char| !c.is_alphanumeric())
+        .next()
+        .unwrap_or_default()
+        .to_string()
+}
+
+/// Out of memory by kind, or by its message (drivers report some allocation failures as
+/// internal or validation errors).
+fn is_out_of_memory(e: &wgpu::Error) -> bool {
+    matches!(e, wgpu::Error::OutOfMemory { .. })
+        || e.to_string().to_ascii_lowercase().contains("out of memory")
 }
 
 /// Picks the best adapter: hardware before software, Vulkan/Metal/DX12 before GL.
