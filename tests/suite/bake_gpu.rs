@@ -228,7 +228,7 @@ fn assert_identical(a: &Propagated, b: &Propagated, what: &str) {
 /// unchunked propagator does.
 #[test]
 fn chunked_bins_give_identical_bits() {
-    use vlf_gpu::bake::{GpuBakeOptions, binding_limit, chunk_layout, propagate_with};
+    use vlf_gpu::bake::{BakePlan, GpuBakeOptions, binding_limit, propagate_with};
     let Some(ctx) = gpu() else {
         return;
     };
@@ -249,17 +249,18 @@ fn chunked_bins_give_identical_bits() {
         let set = DirectionSet::at_least(params.directions).unwrap();
         let (dirs, _) = reference::all_directions(&prep, &set, &params);
 
-        let whole = chunk_layout(&prep, &set, &params, limit, None);
+        let chunk_layout = |cap| BakePlan::new(&prep, &set, &params, limit, cap).chunks;
+        let whole = chunk_layout(None);
         assert_eq!(whole.len(), 1, "{asset}: small bake, one chunk by default");
         assert_eq!(whole[0].directions, 0..dirs.len());
         let quarter = whole[0].bytes.largest() / 4;
-        let several = chunk_layout(&prep, &set, &params, limit, Some(quarter));
+        let several = chunk_layout(Some(quarter));
         assert!(
             several.len() >= 4 && several.iter().all(|c| c.bytes.largest() <= quarter),
             "{asset}: {several:?}"
         );
         assert!(several.iter().any(|c| c.directions.len() > 1));
-        let single = chunk_layout(&prep, &set, &params, limit, Some(1));
+        let single = chunk_layout(Some(1));
         assert_eq!(single.len(), dirs.len(), "{asset}: one direction per chunk");
 
         let run = |cap: Option<u64>| {

@@ -2,6 +2,7 @@
 
 mod accuracy;
 mod bake_gpu;
+mod bake_plan;
 mod gpu_smoke;
 mod pathtrace_gpu;
 mod radiosity_gpu;

@@ -182,11 +182,24 @@ pub fn bake_scene(
     let (out, device_name, adapter) = match compute {
         Compute::Gpu(ctx) => {
             let out = memory::guard_gpu(ctx, &plan, || {
-                vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut |p| {
+                let mut report = |p: vlf_gpu::bake::Progress| {
                     let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
                     let total = u64::from(p.max_iterations) * p.directions as u64;
                     progress(done, total, &format!("iteration {}", p.iteration + 1));
-                })
+                };
+                // The memory plan holds the propagator's buffer plan: the propagator allocates
+                // exactly what the budget counted, without binning every direction again.
+                match &plan.gpu {
+                    Some(gpu_plan) => vlf_gpu::bake::propagate_planned(
+                        ctx,
+                        gpu_plan,
+                        &prep,
+                        &set,
+                        params,
+                        &mut report,
+                    ),
+                    None => vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut report),
+                }
                 .context("GPU propagation")
             })?;
             (out, "gpu", ctx.summary.to_string())

@@ -22,41 +22,48 @@
 //!   GPU; `C_d` = Σ over triangles of the cells their projected bounding box covers, widened by
 //!   one cell as the bins are) + `4 ((N/m)² + 1 + max_d B_d) + 36 T` bins and projections +
 //!   `48 T` triangles + the encoded output file;
-//! * GPU path (GPU buffers, each checked against the adapter's binding limit): `48 T + 80 F`
-//!   geometry, `16 X` texel centres, `4 X` active texel list, `4 Σ_d ((N/m)² + 1 + B_d)` bins of
-//!   every direction, `16 (X + V)` unshot, `16 V` next tiles, `32 X` accumulators,
-//!   `N² (16 + 4)` escape and count buffers, `40 N² min(k_max, 256)` crossing lists (8 B entry +
-//!   32 B interface), tile index, frames and reflect items; plus host memory for the CPU-side
-//!   copies (prepared arrays, radiance, tiles, reflect jobs and items, one direction's bins, the
-//!   upload staging, read-backs, the encoded file).
+//! * GPU path: the GPU buffers are those of `vlf_gpu::bake::BakePlan`, the one list the
+//!   propagator allocates from (sizes from the `#[repr(C)]` element types: geometry, texel
+//!   centres, active texels, unshot `16 (X + V)`, next tiles, accumulators, escape and count
+//!   buffers, `N² min(k_max, 256)` depth entries and crossings, tile index, frames, the
+//!   overflow counter, the per-direction uniforms, and the chunked tile starts, tile bins and
+//!   reflect items), each storage buffer checked against the adapter's binding limit; plus
+//!   host memory for the CPU-side copies (prepared arrays, radiance, tiles, reflect jobs and
+//!   items, one direction's bins, the upload staging, read-backs, the encoded file).
 //!   On a software adapter (lavapipe) the GPU buffers live in system RAM and count against host
 //!   memory too.
 //!
 //! The buffers with something for every transport direction (tile bins `4 B_d`, tile starts
 //! `4 ((N/m)² + 1)`, reflect items) are split into chunks of whole directions
-//! (`vlf_gpu::bake::chunks`, the same greedy split the propagator makes), each at most
+//! (`vlf_gpu::bake::chunks`; the plan makes the split the propagator uses), each at most
 //! min(128 MiB, binding limit): their total counts against memory, their largest chunk against
 //! the binding limit. Only a single direction larger than the limit makes such a buffer too
 //! large (then `--resolution` is halved, or the bake refused, as for any other buffer). The
 //! host bins one direction at a time and writes it into its chunk (staging flushed every
-//! 32 MiB), so it never holds the bins of every direction.
+//! 32 MiB), so it never holds the bins of every direction. The GPU plan made here is handed
+//! to the propagator ([`Planned::params`] and `MemoryPlan::gpu`), which therefore bins every
+//! direction only once more, to upload it.
 //!
 //! The plan is an upper bound: the crossing lists assume that every ray meets every triangle
 //! whose bounding box (GPU: whose tile bin) it passes through.
 
+mod budget;
+mod plan;
+
 use std::fmt;
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use serde::Serialize;
 use vlf_core::bake::BakeScene;
-use vlf_core::bake::reference::{self, ReflectJob, SpecularSetup};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::BakeParams;
-use vlf_core::psf::PsfGrid;
 use vlf_core::scene::Scene;
-use vlf_gpu::bake::{ChunkBytes, Chunker};
+use vlf_gpu::bake::BakePlan;
+use vlf_gpu::device::GpuFault;
+
+pub use budget::{Budget, Limit, human, parse_size, system_ram};
+pub use plan::plan_prepared;
 
 use crate::Compute;
 
@@ -64,166 +71,24 @@ use crate::Compute;
 pub const MIN_RESOLUTION: u32 = 8;
 /// Bytes per ray crossing: depth entry (8) + arriving radiance (32).
 pub const CROSSING_BYTES: u64 = 40;
-/// Default share of the system RAM (MemTotal) one batch may use: 3/4.
-const RAM_SHARE: (u64, u64) = (3, 4);
 /// Resident memory of the process before any scene (measured: 5–7 MiB for `vlf-bake`).
 const BASELINE_BYTES: u64 = 8 << 20;
 /// Resident memory of a software adapter's driver (Mesa, LLVM, the compiled shaders): measured
 /// 93 MiB peak for a GPU bake of the Cornell box on lavapipe against 8 MiB on the CPU path.
 const SOFTWARE_DRIVER_BYTES: u64 = 96 << 20;
-/// Cap on crossings per ray on the GPU (`vlf_gpu::bake::MAX_CROSSINGS`).
-const GPU_MAX_CROSSINGS: u32 = vlf_gpu::bake::MAX_CROSSINGS;
-
-/// Parses `--max-memory`: a number of bytes with an optional binary suffix `K`, `M`, `G`, `T`
-/// (also `KB`/`KiB`…, all powers of 1024), e.g. `2G`, `512M`, `1.5G`, `1048576`.
-pub fn parse_size(s: &str) -> Result<u64, String> {
-    let t = s.trim();
-    let split = t
-        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-        .unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let unit = unit.trim().to_ascii_uppercase();
-    let shift = match unit.trim_end_matches('B').trim_end_matches('I') {
-        "" => 0,
-        "K" => 10,
-        "M" => 20,
-        "G" => 30,
-        "T" => 40,
-        _ => return Err(format!("unknown size unit in `{s}` (use K, M, G or T)")),
-    };
-    if (unit.ends_with("IB") && shift == 0) || unit == "I" {
-        return Err(format!("unknown size unit in `{s}` (use K, M, G or T)"));
-    }
-    let value: f64 = num
-        .parse()
-        .map_err(|_| format!("expected a size such as 2G or 512M, got `{s}`"))?;
-    let bytes = value * (1u64 << shift) as f64;
-    if !bytes.is_finite() || bytes < 1.0 || bytes > u64::MAX as f64 / 2.0 {
-        return Err(format!("size `{s}` is out of range (at least 1 byte)"));
-    }
-    Ok(bytes as u64)
-}
-
-/// `1.5 GiB`-style text for byte counts.
-pub fn human(bytes: u64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut v = bytes as f64;
-    let mut u = 0;
-    while v >= 1024.0 && u + 1 < UNITS.len() {
-        v /= 1024.0;
-        u += 1;
-    }
-    if u == 0 {
-        format!("{bytes} B")
-    } else {
-        format!("{v:.1} {}", UNITS[u])
-    }
-}
-
-/// One limit of a [`Budget`].
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Limit {
-    pub bytes: u64,
-    /// Where it comes from (`--max-memory 2.0 GiB`, `3/4 of MemTotal …`, an adapter limit).
-    pub source: String,
-}
-
-/// What one bake may use.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct Budget {
-    /// Host RAM: everything on the CPU path; host-side copies on the GPU path (plus the GPU
-    /// buffers on a software adapter, whose "GPU memory" is system RAM).
-    pub host: Option<Limit>,
-    /// All GPU buffers together (GPU path with `--max-memory` on a hardware adapter; wgpu does
-    /// not report the size of device memory, so there is no default).
-    pub device: Option<Limit>,
-    /// One GPU buffer: the adapter's `max_storage_buffer_binding_size` (≤ `max_buffer_size`).
-    pub buffer: Option<Limit>,
-}
-
-impl Budget {
-    /// The budget of one of `jobs` concurrent bakes on `compute`, `--max-memory` = `max_memory`.
-    pub fn new(max_memory: Option<u64>, compute: &Compute, jobs: u32) -> Budget {
-        let jobs = u64::from(jobs.max(1));
-        let ram = system_ram().map(|total| {
-            let share = total / RAM_SHARE.1 * RAM_SHARE.0;
-            Limit {
-                bytes: share / jobs,
-                source: if jobs > 1 {
-                    format!(
-                        "3/4 of the system RAM ({} MemTotal) shared by {jobs} jobs",
-                        human(total)
-                    )
-                } else {
-                    format!("3/4 of the system RAM ({} MemTotal)", human(total))
-                },
-            }
-        });
-        let given = max_memory.map(|b| Limit {
-            bytes: b,
-            source: format!("--max-memory {}", human(b)),
-        });
-        match compute {
-            Compute::Cpu(_) => Budget {
-                host: given.or(ram),
-                device: None,
-                buffer: None,
-            },
-            Compute::Gpu(ctx) => {
-                let limits = ctx.device.limits();
-                let buffer = Some(Limit {
-                    bytes: limits
-                        .max_storage_buffer_binding_size
-                        .min(limits.max_buffer_size),
-                    source: format!("max_storage_buffer_binding_size of {}", ctx.summary.name),
-                });
-                if ctx.summary.is_software() {
-                    // lavapipe: GPU buffers are system RAM.
-                    Budget {
-                        host: given.or(ram),
-                        device: None,
-                        buffer,
-                    }
-                } else {
-                    Budget {
-                        host: ram,
-                        device: given,
-                        buffer,
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// MemTotal from /proc/meminfo, in bytes.
-pub fn system_ram() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    parse_meminfo(&text)
-}
-
-fn parse_meminfo(text: &str) -> Option<u64> {
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let mut parts = line["MemTotal:".len()..].split_whitespace();
-    let value: u64 = parts.next()?.parse().ok()?;
-    let scale = match parts.next() {
-        Some("kB") | Some("KB") | Some("kiB") => 1024,
-        None => 1,
-        Some(_) => return None,
-    };
-    Some(value * scale)
-}
 
 /// One line of a [`MemoryPlan`].
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PlanItem {
-    pub name: &'static str,
+    pub name: String,
     /// `host` or `gpu`.
     pub place: &'static str,
     /// Elements (texels, values, crossings, …) in one copy.
     pub count: u64,
     pub bytes_each: u64,
     pub copies: u64,
+    /// `count × bytes_each × copies`; a GPU buffer's allocated size, which pads an empty
+    /// array (one element, or 16 bytes).
     pub bytes: u64,
     /// A GPU item split into several buffers (chunks of whole directions); `bytes` is their sum.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -234,7 +99,7 @@ pub struct PlanItem {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Split {
     /// One buffer's name in messages (`Bake::bin_tris[k]`).
-    pub part: &'static str,
+    pub part: String,
     /// Number of buffers.
     pub buffers: u64,
     /// Bytes of the largest buffer.
@@ -249,7 +114,7 @@ impl PlanItem {
         match &self.split {
             None => self.clone(),
             Some(s) => PlanItem {
-                name: s.part,
+                name: s.part.clone(),
                 place: self.place,
                 count: s.largest / self.bytes_each.max(1),
                 bytes_each: self.bytes_each,
@@ -297,6 +162,10 @@ pub struct MemoryPlan {
     pub lowered_from: Option<u32>,
     /// Seconds spent planning (binning every direction, building the tile index).
     pub plan_s: f64,
+    /// The GPU path's buffers, which the propagator allocates (not in the JSON report: the
+    /// GPU items above list them).
+    #[serde(skip)]
+    pub gpu: Option<BakePlan>,
 }
 
 impl MemoryPlan {
@@ -359,7 +228,7 @@ impl MemoryPlan {
     /// The largest items, for messages: `crossing lists 12.0 MiB, texel radiance 3.0 MiB`.
     pub fn largest_items(&self, n: usize) -> String {
         let mut items: Vec<&PlanItem> = self.items.iter().collect();
-        items.sort_by(|a, b| b.bytes.cmp(&a.bytes).then(a.name.cmp(b.name)));
+        items.sort_by(|a, b| b.bytes.cmp(&a.bytes).then(a.name.cmp(&b.name)));
         items
             .iter()
             .take(n)
@@ -656,764 +525,27 @@ fn texel_floor(scene: &Scene, params: &BakeParams, gpu: bool) -> u64 {
     x * (52 + 48 + if gpu { 0 } else { 36 })
 }
 
-fn item(name: &'static str, place: &'static str, count: u64, each: u64, copies: u64) -> PlanItem {
-    PlanItem {
-        name,
-        place,
-        count,
-        bytes_each: each,
-        copies,
-        bytes: count * each * copies,
-        split: None,
-    }
-}
-
-/// A GPU item split into the chunks of `chunker`; `largest` and `total` in bytes.
-fn split_item(
-    name: &'static str,
-    part: &'static str,
-    each: u64,
-    total: u64,
-    largest: u64,
-    chunker: &Chunker,
-) -> PlanItem {
-    PlanItem {
-        split: Some(Split {
-            part,
-            buffers: chunker.chunks().len() as u64,
-            largest,
-            cap: chunker.cap(),
-        }),
-        ..item(name, "gpu", total / each, each, 1)
-    }
-}
-
-/// The plan for `scene` prepared as `prep` (not yet checked against the budget); `software`:
-/// the GPU path on a software adapter (whose driver lives in the process).
-pub fn plan_prepared(
-    scene: &Scene,
-    prep: &BakeScene,
-    set: &DirectionSet,
-    params: &BakeParams,
-    gpu: bool,
-    software: bool,
-    budget: &Budget,
-) -> MemoryPlan {
-    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
-    let (dirs, _quadrature) = reference::all_directions(prep, set, params);
-    let n2 = u64::from(params.resolution).pow(2);
-    let m2 = u64::from(params.tile).pow(2);
-    let tiles2 = u64::from(grid.tiles_per_side()).pow(2);
-    let tris = prep.triangles.len() as u64;
-    let faces = prep.faces.len() as u64;
-    let x = prep.texel_count() as u64;
-
-    // Mirror tiles, exactly as SpecularSetup::new builds them.
-    let spec = SpecularSetup::new(prep, set, &grid, &dirs);
-    let mut items_per_dir = vec![0u64; dirs.len()];
-    let (tile_values, index_words, jobs, reflect_items) = match &spec {
-        None => (0, 0, 0, 0),
-        Some(s) => {
-            let ix = &s.index;
-            let words = ix.face_slot.len() + ix.index_start.len() + ix.tile_ids.len();
-            let words = words + ix.coverage.len();
-            let mut jobs = 0u64;
-            for (per_dir, items) in s.jobs.iter().zip(&mut items_per_dir) {
-                jobs += per_dir.len() as u64;
-                for job in per_dir {
-                    let mf = ix.face_slot[job.face as usize] as usize;
-                    let k = mf * ix.directions as usize + job.j as usize;
-                    *items += u64::from(ix.index_start[k + 1] - ix.index_start[k]);
-                }
-            }
-            let items = items_per_dir.iter().sum();
-            (ix.value_len() as u64, words as u64, jobs, items)
-        }
-    };
-    drop(spec);
-
-    // Bins of every transport direction, as both propagators build them, and the chunks the
-    // GPU propagator splits them (with the reflect items) into; and the cells each triangle's
-    // projected bounding box covers (widened by one cell, as the bins are), an upper bound on
-    // the rays that can cross it.
-    let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
-    let mut chunker = Chunker::new(vlf_gpu::bake::chunk_cap(limit, None));
-    let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;
-    let mut k_max = 1u32;
-    let mut binned_max = 0u64;
-    let mut box_cells_max = 0u64;
-    // The most bytes one direction uploads.
-    let mut upload_max = 0u64;
-    let (cell, n) = (grid.cell_size(), params.resolution as i64);
-    let first = |x: f32| ((((x + 1.0) / cell - 0.5).floor() - 1.0) as i64).clamp(0, n - 1);
-    let last = |x: f32| ((((x + 1.0) / cell - 0.5).ceil() + 1.0) as i64).clamp(0, n - 1);
-    for (d, items) in dirs.iter().zip(&items_per_dir) {
-        let proj = reference::project(prep, &d.frame);
-        let bins = reference::bin_triangles(&proj, &grid);
-        k_max = k_max.max(bins.max_len());
-        binned_max = binned_max.max(bins.tris.len() as u64);
-        let bytes = ChunkBytes {
-            bin_start: bins.start.len() as u64 * 4,
-            bin_tris: bins.tris.len() as u64 * 4,
-            reflect_items: items * item_bytes,
-        };
-        upload_max = upload_max.max(bytes.sum());
-        chunker.push(bytes);
-        let box_cells: u64 = proj
-            .iter()
-            .map(|q| {
-                let lo = q[0].min(q[1]).min(q[2]);
-                let hi = q[0].max(q[1]).max(q[2]);
-                let w = last(hi.x) - first(lo.x) + 1;
-                let h = last(hi.y) - first(lo.y) + 1;
-                (w.max(0) * h.max(0)) as u64
-            })
-            .sum();
-        box_cells_max = box_cells_max.max(box_cells);
-    }
-
-    let enc = vlf_core::lightfield::DEFAULT_ENCODING.bytes_per_texel() as u64;
-    let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
-    let job_bytes = size_of::<ReflectJob>() as u64;
-    let texture_texels: u64 = scene.textures.iter().map(|t| t.pixels.len() as u64).sum();
-    let mut items = vec![
-        item(
-            "process baseline (program, libraries)",
-            "host",
-            BASELINE_BYTES,
-            1,
-            1,
-        ),
-        item(
-            "scene triangles (world)",
-            "host",
-            scene.triangles.len() as u64,
-            size_of::<vlf_core::scene::Triangle>() as u64,
-            1,
-        ),
-        item(
-            "scene textures (decoded, RGBA f32)",
-            "host",
-            texture_texels,
-            16,
-            1,
-        ),
-    ];
-    if gpu && software {
-        items.push(item(
-            "software GPU driver (Mesa, LLVM, shaders)",
-            "host",
-            SOFTWARE_DRIVER_BYTES,
-            1,
-            1,
-        ));
-    }
-    // The items above do not depend on the parameters.
-    let fixed = items.len();
-    items.extend([
-        item("triangles (prepared)", "host", tris, 48, 1),
-        item(
-            "texel arrays (area, centre, albedo, emission)",
-            "host",
-            x,
-            52,
-            1,
-        ),
-        item("texel radiance (unshot, next, total)", "host", x, 16, 3),
-    ]);
-    if gpu {
-        let k_gpu = u64::from(k_max.min(GPU_MAX_CROSSINGS));
-        let active = prep
-            .faces
-            .iter()
-            .map(|f| {
-                let base = f.texel_base as usize;
-                prep.texel_area[base..base + f.texels_per_side() as usize]
-                    .iter()
-                    .filter(|a| **a > 0.0)
-                    .count() as u64
-            })
-            .sum::<u64>();
-        let (total, largest) = (chunker.total(), chunker.largest());
-        // The propagator bins one direction at a time and writes it to its chunk; the writes'
-        // staging copies live until the next submission, every UPLOAD_FLUSH_BYTES.
-        let staging = total
-            .sum()
-            .min(vlf_gpu::bake::UPLOAD_FLUSH_BYTES + upload_max);
-        items.extend([
-            item("texel centres (upload copy)", "host", x, 16, 1),
-            item("accumulators (read back)", "host", x, 32, 2),
-            item(
-                "tile values (unshot, next, total)",
-                "host",
-                tile_values,
-                16,
-                3,
-            ),
-            item(
-                "tile bins and starts (one direction)",
-                "host",
-                2 * (tiles2 + 1) + binned_max,
-                4,
-                1,
-            ),
-            item("projected triangles (one direction)", "host", tris, 36, 1),
-            item("upload staging (bins, items)", "host", staging, 1, 1),
-            item(
-                "reflect jobs (until the items are built)",
-                "host",
-                jobs,
-                job_bytes,
-                1,
-            ),
-            item("reflect items", "host", reflect_items, item_bytes, 1),
-            item("encoded output file", "host", file, 1, 1),
-            item("Bake::triangles", "gpu", tris, 48, 1),
-            item("Bake::faces", "gpu", faces, 80, 1),
-            item("Bake::texel_center", "gpu", x, 16, 1),
-            item("Bake::active_texels", "gpu", active, 4, 1),
-            split_item(
-                "Bake::bin_start (all directions)",
-                "Bake::bin_start[k]",
-                4,
-                total.bin_start,
-                largest.bin_start,
-                &chunker,
-            ),
-            split_item(
-                "Bake::bin_tris (all directions)",
-                "Bake::bin_tris[k]",
-                4,
-                total.bin_tris,
-                largest.bin_tris,
-                &chunker,
-            ),
-            item(
-                "Bake::unshot (texels + tiles)",
-                "gpu",
-                x + tile_values,
-                16,
-                1,
-            ),
-            item("Bake::next_tiles", "gpu", tile_values, 16, 1),
-            item("Bake::accumulators", "gpu", x, 32, 1),
-            item("Bake::spec_escape", "gpu", n2, 16, 1),
-            item("Bake::cell_count", "gpu", n2, 4, 1),
-            item(
-                "Bake::cells (N² × k_max depth entries)",
-                "gpu",
-                n2 * k_gpu,
-                8,
-                1,
-            ),
-            item("Bake::crossings (N² × k_max)", "gpu", n2 * k_gpu, 32, 1),
-            item("Bake::tile_index", "gpu", index_words, 4, 1),
-            item("Bake::frames", "gpu", set.len() as u64 * 3, 16, 1),
-            split_item(
-                "Bake::reflect_items (all directions)",
-                "Bake::reflect_items[k]",
-                item_bytes,
-                total.reflect_items,
-                largest.reflect_items,
-                &chunker,
-            ),
-            item(
-                "Bake::directions (uniforms)",
-                "gpu",
-                dirs.len() as u64,
-                256,
-                1,
-            ),
-        ]);
-    } else {
-        let crossings = (n2 * u64::from(k_max))
-            .min(m2 * binned_max)
-            .min(box_cells_max);
-        items.extend([
-            item("accumulators and texel faces", "host", x, 36, 1),
-            item(
-                "tile values (unshot, next, total)",
-                "host",
-                tile_values,
-                16,
-                3,
-            ),
-            item("tile index", "host", index_words, 4, 1),
-            item("reflect jobs", "host", jobs, job_bytes, 1),
-            item(
-                "ray crossing lists (one direction)",
-                "host",
-                crossings,
-                CROSSING_BYTES,
-                1,
-            ),
-            item(
-                "tile bins (one direction)",
-                "host",
-                tiles2 + 1 + binned_max,
-                4,
-                1,
-            ),
-            item("projected triangles (one direction)", "host", tris, 36, 1),
-            item("encoded output file", "host", file, 1, 1),
-        ]);
-    }
-    // Every item's count fits easily; saturate anyway so absurd inputs cannot wrap.
-    let sum = |items: &[PlanItem], place: &str| {
-        items
-            .iter()
-            .filter(|i| i.place == place)
-            .fold(0u64, |s, i| s.saturating_add(i.bytes))
-    };
-    // Heap fragmentation and freed-but-resident memory (measured: the peak resident size of
-    // CPU bakes of the shared scenes is within +6 % of the items above).
-    let overhead = sum(&items, "host") / 10;
-    items.push(item(
-        "allocator overhead (10 % of the above)",
-        "host",
-        overhead,
-        1,
-        1,
-    ));
-    let host_bytes = sum(&items, "host");
-    let device_bytes = sum(&items, "gpu");
-    let fixed_bytes = items[..fixed].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
-    let largest_buffer = items
-        .iter()
-        .filter(|i| i.place == "gpu")
-        .map(PlanItem::largest_buffer)
-        .max_by_key(|i| i.bytes);
-    MemoryPlan {
-        path: if gpu { "gpu" } else { "cpu" },
-        resolution: params.resolution,
-        tile: params.tile,
-        directions: set.len(),
-        transport_directions: dirs.len(),
-        triangles: tris,
-        faces,
-        texels: x,
-        tile_values,
-        k_max,
-        binned_max,
-        items,
-        host_bytes,
-        fixed_bytes,
-        device_bytes,
-        largest_buffer,
-        budget: budget.clone(),
-        over_budget: Vec::new(),
-        lowered_from: None,
-        plan_s: 0.0,
-    }
-}
-
-/// What the GPU reported while a bake ran.
-#[derive(Default)]
-struct GpuTrap {
-    /// First uncaptured error: (kind from the variant name, message).
-    error: Option<(String, String)>,
-    lost: Option<String>,
-}
-
-/// Runs `f` (a GPU propagation) with wgpu's error reporting redirected: an uncaptured error
-/// (out of memory, validation) or a lost device no longer panics inside wgpu but is turned into
-/// a [`MemoryError`] naming the planned GPU memory. wgpu's default uncaptured-error handler
-/// panics; this replaces it for the device (bakes on one device are serialised by the caller).
+/// Runs `f` (a GPU propagation) with the GPU's errors trapped (`GpuContext::trap`): an
+/// out-of-memory or validation error or a lost device becomes a [`MemoryError`] naming the
+/// planned GPU memory instead of wgpu's default panic.
 pub fn guard_gpu<T>(
     ctx: &vlf_gpu::GpuContext,
     plan: &MemoryPlan,
     f: impl FnOnce() -> anyhow::Result<T>,
 ) -> anyhow::Result<T> {
-    let trap = Arc::new(Mutex::new(GpuTrap::default()));
-    let t = trap.clone();
-    ctx.device.on_uncaptured_error(Arc::new(move |e| {
-        let kind = format!("{e:?}");
-        let kind = kind
-            .split(|c: char| !c.is_alphanumeric())
-            .next()
-            .unwrap_or_default()
-            .to_string();
-        let msg = e.to_string();
-        log::debug!("wgpu uncaptured error ({kind}): {msg}");
-        let mut g = t.lock().unwrap_or_else(|p| p.into_inner());
-        if g.error.is_none() {
-            g.error = Some((kind, msg));
-        }
-    }));
-    let t = trap.clone();
-    ctx.device.set_device_lost_callback(move |reason, msg| {
-        let mut g = t.lock().unwrap_or_else(|p| p.into_inner());
-        g.lost.get_or_insert_with(|| format!("{reason:?}: {msg}"));
-    });
-    let result = f();
-    let g = trap.lock().unwrap_or_else(|p| p.into_inner());
-    let planned = plan.device_bytes;
-    if let Some(detail) = &g.lost {
-        return Err(MemoryError::DeviceLost {
-            detail: detail.clone(),
-        }
-        .into());
-    }
-    if let Some((kind, msg)) = &g.error {
-        let err = if kind == "OutOfMemory" || msg.to_ascii_lowercase().contains("out of memory") {
-            MemoryError::GpuOutOfMemory {
-                detail: msg.clone(),
-                planned,
-            }
-        } else {
-            MemoryError::Gpu {
-                detail: format!("{kind}: {msg}"),
-            }
-        };
-        return Err(err.into());
-    }
-    result
+    let err = match ctx.trap(f) {
+        Ok(result) => return result,
+        Err(GpuFault::OutOfMemory { detail }) => MemoryError::GpuOutOfMemory {
+            detail,
+            planned: plan.device_bytes,
+        },
+        Err(GpuFault::DeviceLost { detail }) => MemoryError::DeviceLost { detail },
+        Err(GpuFault::Error { kind, message }) => MemoryError::Gpu {
+            detail: format!("{kind}: {message}"),
+        },
+    };
+    Err(err.into())
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes_parse_with_binary_units() {
-        assert_eq!(parse_size("512"), Ok(512));
-        assert_eq!(parse_size("1K"), Ok(1024));
-        assert_eq!(parse_size("512M"), Ok(512 << 20));
-        assert_eq!(parse_size("2G"), Ok(2 << 30));
-        assert_eq!(parse_size("2g"), Ok(2 << 30));
-        assert_eq!(parse_size("2GiB"), Ok(2 << 30));
-        assert_eq!(parse_size("2GB"), Ok(2 << 30));
-        assert_eq!(parse_size("1.5G"), Ok(3 << 29));
-        assert_eq!(parse_size(" 1 T "), Ok(1 << 40));
-        for bad in ["", "G", "2X", "-1G", "0", "1.2.3M", "2Gi x", "5i"] {
-            assert!(parse_size(bad).is_err(), "{bad:?} should be rejected");
-        }
-    }
-
-    #[test]
-    fn human_sizes() {
-        assert_eq!(human(1000), "1000 B");
-        assert_eq!(human(1536), "1.5 KiB");
-        assert_eq!(human(3 << 30), "3.0 GiB");
-    }
-
-    #[test]
-    fn meminfo_parses() {
-        let text = "MemTotal:       24596120 kB\nMemFree:         1000 kB\n";
-        assert_eq!(parse_meminfo(text), Some(24_596_120 * 1024));
-        assert_eq!(parse_meminfo("MemFree: 3 kB\n"), None);
-    }
-
-    #[test]
-    fn halving_keeps_the_tile_a_divisor() {
-        let p = BakeParams {
-            resolution: 64,
-            tile: 8,
-            ..BakeParams::paper()
-        };
-        let h = halve(&p).unwrap();
-        assert_eq!((h.resolution, h.tile), (32, 8));
-        let p = BakeParams {
-            resolution: 24,
-            tile: 8,
-            ..p
-        };
-        let h = halve(&p).unwrap();
-        assert_eq!((h.resolution, h.tile), (12, 6));
-        h.validate().unwrap();
-        let p = BakeParams {
-            resolution: 16,
-            tile: 16,
-            ..p
-        };
-        let h = halve(&p).unwrap();
-        assert_eq!((h.resolution, h.tile), (8, 8));
-        assert!(halve(&h).is_none(), "never below MIN_RESOLUTION");
-        let odd = BakeParams {
-            resolution: 30,
-            tile: 5,
-            ..p
-        };
-        assert_eq!(halve(&odd).map(|p| (p.resolution, p.tile)), Some((15, 5)));
-        let odd = BakeParams {
-            resolution: 15,
-            tile: 5,
-            ..p
-        };
-        assert!(halve(&odd).is_none());
-    }
-
-    /// The GPU context for tests, or `None` (skip) when there is no adapter and
-    /// `VLF_REQUIRE_GPU` is not `1` (as `vlf_tests::gpu()` does).
-    fn gpu() -> Option<vlf_gpu::GpuContext> {
-        match vlf_gpu::GpuContext::new(&Default::default()) {
-            Ok(ctx) => Some(ctx),
-            Err(e) if std::env::var("VLF_REQUIRE_GPU").as_deref() != Ok("1") => {
-                eprintln!("skipping GPU test: {e}");
-                None
-            }
-            Err(e) => panic!("VLF_REQUIRE_GPU=1 but no GPU: {e}"),
-        }
-    }
-
-    fn gpu_plan(ctx: vlf_gpu::GpuContext) -> (Compute, MemoryPlan) {
-        let scene = cornell();
-        let p = BakeParams {
-            directions: 6,
-            resolution: 16,
-            tile: 8,
-            ..BakeParams::paper()
-        };
-        let compute = Compute::Gpu(Box::new(ctx));
-        let budget = Budget::new(None, &compute, 1);
-        assert!(budget.buffer.is_some() && budget.host.is_some());
-        let planned = plan_and_prepare(&scene, &p, &compute, &budget, Path::new("t")).unwrap();
-        assert!(planned.plan.device_bytes > 0 && planned.plan.largest_buffer.is_some());
-        (compute, planned.plan)
-    }
-
-    #[test]
-    fn gpu_errors_become_messages_not_panics() {
-        let Some(ctx) = gpu() else { return };
-        let (compute, plan) = gpu_plan(ctx);
-        let Compute::Gpu(ctx) = &compute else {
-            unreachable!()
-        };
-        // An unbalanced debug group is a validation error, which wgpu's default handler turns
-        // into a panic.
-        let err = guard_gpu(ctx, &plan, || {
-            let mut enc = ctx.device.create_command_encoder(&Default::default());
-            enc.pop_debug_group();
-            ctx.queue.submit(Some(enc.finish()));
-            Ok(())
-        })
-        .expect_err("the validation error is reported");
-        let e = err.downcast_ref::<MemoryError>().expect("a MemoryError");
-        assert!(matches!(e, MemoryError::Gpu { .. }), "{e}");
-        // The device is still usable afterwards, and a clean run passes.
-        guard_gpu(ctx, &plan, || Ok(())).unwrap();
-        // A lost device is reported as such.
-        let err = guard_gpu(ctx, &plan, || {
-            ctx.device.destroy();
-            ctx.wait_idle();
-            Ok(())
-        })
-        .expect_err("device loss is reported");
-        let e = err.downcast_ref::<MemoryError>().expect("a MemoryError");
-        assert!(matches!(e, MemoryError::DeviceLost { .. }), "{e}");
-        assert!(e.to_string().contains("device was lost"), "{e}");
-    }
-
-    fn cornell() -> Scene {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../assets/cornell-mirror/cornell-mirror.gltf");
-        vlf_core::scene::load(&path).expect("bundled asset loads")
-    }
-
-    #[test]
-    fn texel_count_matches_the_preparation() {
-        let scene = cornell();
-        for (n, s) in [(16, 1.0), (64, 1.0), (48, 0.7)] {
-            let p = BakeParams {
-                resolution: n,
-                tile: 8,
-                texel_scale: s,
-                ..BakeParams::paper()
-            };
-            let prep = BakeScene::new(&scene, &p).unwrap();
-            assert_eq!(texel_count(&scene, &p), prep.texel_count() as u64);
-        }
-    }
-
-    #[test]
-    fn plan_matches_the_cpu_propagator_and_lowers_to_fit() {
-        let scene = cornell();
-        let p = BakeParams {
-            directions: 6,
-            resolution: 32,
-            tile: 8,
-            ..BakeParams::paper()
-        };
-        let cpu = Compute::Cpu("test".into());
-        let unlimited = Budget::default();
-        let planned = plan_and_prepare(&scene, &p, &cpu, &unlimited, Path::new("t")).unwrap();
-        let plan = &planned.plan;
-        assert!(plan.fits());
-        assert_eq!(planned.params, p);
-        assert_eq!(plan.texels, planned.prep.texel_count() as u64);
-        // The tile values are what the propagator allocates.
-        let out = reference::propagate(&planned.prep, &planned.set, &p);
-        let (_, values) = out.tiles.expect("mirror scene has tiles");
-        assert_eq!(plan.tile_values, values.len() as u64);
-        assert!(plan.k_max >= 1 && plan.host_bytes > 0 && plan.device_bytes == 0);
-
-        // A budget just below the plan lowers the resolution once, with a warning.
-        let tight = Budget {
-            host: Some(Limit {
-                bytes: plan.host_bytes - 1,
-                source: "test".into(),
-            }),
-            ..Budget::default()
-        };
-        let lowered = plan_and_prepare(&scene, &p, &cpu, &tight, Path::new("t")).unwrap();
-        assert_eq!(lowered.params.resolution, 16);
-        assert_eq!(lowered.plan.lowered_from, Some(32));
-        let variable = |p: &MemoryPlan| p.host_bytes - p.fixed_bytes;
-        assert!(variable(&lowered.plan) < variable(plan) / 2);
-        assert!(
-            lowered
-                .prep
-                .warnings
-                .iter()
-                .any(|w| w.contains("lowered from 32 to 16"))
-        );
-
-        // Nothing fits in 1 KiB: a refusal naming the budget and what to change.
-        let tiny = Budget {
-            host: Some(Limit {
-                bytes: 1024,
-                source: "--max-memory 1.0 KiB".into(),
-            }),
-            ..Budget::default()
-        };
-        let err = plan_and_prepare(&scene, &p, &cpu, &tiny, Path::new("scene.gltf"))
-            .err()
-            .expect("refused");
-        let msg = format!("{err:#}");
-        assert!(msg.contains("does not fit the memory budget"), "{msg}");
-        assert!(msg.contains("--max-memory 1.0 KiB"), "{msg}");
-        assert!(msg.contains("from 32 to 8"), "{msg}");
-        assert!(msg.contains("alone need"), "{msg}");
-        let Some(MemoryError::OverBudget { plan: at8, .. }) = err.downcast_ref::<MemoryError>()
-        else {
-            panic!("not an OverBudget error: {msg}")
-        };
-        assert_eq!(at8.resolution, 8);
-
-        // Above what the program and scene need but below the smallest bake: the message says
-        // which parameters to change.
-        let small = Budget {
-            host: Some(Limit {
-                bytes: at8.fixed_bytes + 1000,
-                source: "--max-memory".into(),
-            }),
-            ..Budget::default()
-        };
-        assert!(at8.host_bytes > at8.fixed_bytes + 1000);
-        let err = plan_and_prepare(&scene, &p, &cpu, &small, Path::new("scene.gltf"))
-            .err()
-            .expect("refused");
-        let msg = format!("{err:#}");
-        assert!(msg.contains("lower --directions (now 6)"), "{msg}");
-        assert!(msg.contains("Raise --max-memory"), "{msg}");
-    }
-
-    #[test]
-    fn gpu_plan_splits_the_bins_into_chunks_as_the_propagator_does() {
-        let scene = cornell();
-        let p = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            ..BakeParams::paper()
-        };
-        let prep = BakeScene::new(&scene, &p).unwrap();
-        let set = DirectionSet::at_least(p.directions).unwrap();
-        let with_limit = |bytes: u64| Budget {
-            buffer: Some(Limit {
-                bytes,
-                source: "test".into(),
-            }),
-            ..Budget::default()
-        };
-        let plan = |limit: u64| {
-            let mut plan = plan_prepared(&scene, &prep, &set, &p, true, true, &with_limit(limit));
-            plan.check(true);
-            plan
-        };
-        let find = |plan: &MemoryPlan, name: &str| {
-            plan.items
-                .iter()
-                .find(|i| i.name == name)
-                .unwrap_or_else(|| panic!("no {name} in {plan}"))
-                .clone()
-        };
-        let split_names = [
-            "Bake::bin_start (all directions)",
-            "Bake::bin_tris (all directions)",
-            "Bake::reflect_items (all directions)",
-        ];
-        let layout = |limit| vlf_gpu::bake::chunk_layout(&prep, &set, &p, limit, None);
-
-        // Default cap (128 MiB): one buffer each, as the propagator makes them.
-        let whole = plan(128 << 20);
-        assert!(whole.fits(), "{whole}");
-        let chunks = layout(128 << 20);
-        assert_eq!(chunks.len(), 1);
-        let tris = find(&whole, split_names[1]);
-        let s = tris.split.clone().expect("split item");
-        assert_eq!((s.buffers, s.largest, s.cap), (1, tris.bytes, 128 << 20));
-        assert_eq!(tris.bytes, chunks[0].bytes.bin_tris);
-        assert_eq!(
-            find(&whole, split_names[2]).bytes,
-            chunks[0].bytes.reflect_items
-        );
-        assert!(find(&whole, split_names[2]).bytes > 0, "mirror scene");
-        let host_bins = find(&whole, "tile bins and starts (one direction)").bytes;
-
-        // A limit of a quarter of the bins: several buffers with the propagator's split, the
-        // same totals, every part within the limit; the host fills one chunk at a time.
-        let limit = tris.bytes / 4;
-        let split = plan(limit);
-        let chunks = layout(limit);
-        assert!(chunks.len() >= 4, "{chunks:?}");
-        for (name, part) in split_names.iter().zip([
-            chunks.iter().map(|c| c.bytes.bin_start).max(),
-            chunks.iter().map(|c| c.bytes.bin_tris).max(),
-            chunks.iter().map(|c| c.bytes.reflect_items).max(),
-        ]) {
-            let (a, b) = (find(&whole, name), find(&split, name));
-            assert_eq!(a.bytes, b.bytes, "{name}: same total");
-            let s = b.split.expect("split item");
-            assert_eq!(s.buffers, chunks.len() as u64, "{name}");
-            assert_eq!(Some(s.largest), part, "{name}");
-            assert!(s.largest <= limit, "{name}: {s:?}");
-        }
-        assert_eq!(split.device_bytes, whole.device_bytes);
-        // The host side does not depend on the split.
-        assert_eq!(
-            find(&split, "tile bins and starts (one direction)").bytes,
-            host_bins
-        );
-        assert_eq!(split.host_bytes, whole.host_bytes);
-        assert!(
-            split.over_budget.iter().all(|o| !o.contains("Bake::bin_")),
-            "{:?}",
-            split.over_budget
-        );
-        // The largest buffer is a whole item or the largest part of a split one.
-        let biggest = split
-            .items
-            .iter()
-            .filter(|i| i.place == "gpu")
-            .map(|i| i.split.as_ref().map_or(i.bytes, |s| s.largest))
-            .max();
-        assert_eq!(split.largest_buffer.as_ref().map(|b| b.bytes), biggest);
-        assert!(split.to_string().contains(&format!(
-            "in {} buffers of ≤ {}",
-            chunks.len(),
-            human(limit)
-        )));
-
-        // Below one direction's bins: one direction per chunk, and that is still too large for
-        // one buffer (halving or refusal, as for any other buffer).
-        let one_dir = layout(1).iter().map(|c| c.bytes.bin_tris).max().unwrap();
-        let tiny = plan(one_dir - 4);
-        let s = find(&tiny, split_names[1]).split.unwrap();
-        assert_eq!(s.buffers as usize, layout(1).len());
-        assert_eq!(s.largest, one_dir);
-        assert!(!tiny.fits());
-        let big = tiny.largest_buffer.as_ref().unwrap();
-        assert!(big.bytes >= one_dir && big.bytes > one_dir - 4, "{big:?}");
-    }
-}
+mod tests;

@@ -1,6 +1,7 @@
 //! End-to-end tests of the `vlf-bake` binary on the CPU path (`--device cpu`, tiny parameters):
 //! subcommands, exit codes, `batch` (failures, skipping, `--force`, report, Ctrl-C), the memory
-//! budget, reproducibility, and atomic writes under SIGKILL.
+//! budget, reproducibility, and atomic writes under SIGKILL; and one `batch` on the GPU
+//! (skipped without an adapter under the suite's policy, `vlf_tests::gpu`).
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -330,6 +331,36 @@ fn the_same_bake_twice_is_byte_identical() {
     let (x, y) = (fs::read(&a).unwrap(), fs::read(&b).unwrap());
     assert!(x.len() > 1000);
     assert!(x == y, "two bakes of the same scene differ");
+    let _ = fs::remove_dir_all(&d);
+}
+
+/// A GPU batch of several scenes compiles the bake pipelines once: the device's pipelines are
+/// shared by every scene (the log line is written where they are created).
+#[test]
+fn gpu_batch_creates_the_bake_pipelines_once() {
+    if vlf_tests::gpu().is_none() {
+        return;
+    }
+    let d = scratch("gpu-batch");
+    let scenes = d.join("scenes");
+    fs::create_dir_all(&scenes).unwrap();
+    fs::copy(box_scene(), scenes.join("a-box.gltf")).unwrap();
+    fs::copy(mirror_scene(), scenes.join("b-mirror.gltf")).unwrap();
+    fs::copy(box_scene(), scenes.join("c-box.gltf")).unwrap();
+    let out = d.join("out");
+    let mut args = vec!["batch", s(&scenes), "-o", s(&out), "-v"];
+    args.extend(&TINY[2..]);
+    args.extend(["--device", "gpu"]);
+    let o = bin()
+        .args(&args)
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("vlf-bake runs");
+    let (stdout, stderr) = (text(&o.stdout), text(&o.stderr));
+    assert_eq!(code(&o), 0, "{stderr}");
+    assert_eq!(stdout.matches("ok       ").count(), 3, "{stdout}");
+    let created = stderr.matches("created the bake pipelines").count();
+    assert_eq!(created, 1, "pipelines created {created} times:\n{stderr}");
     let _ = fs::remove_dir_all(&d);
 }
 

@@ -50,7 +50,12 @@ pub struct Cli {
     pub look_at: Option<glam::Vec3>,
 
     /// Vertical field of view of the look-at camera, degrees.
-    #[arg(long, value_name = "DEG", default_value_t = 60.0, requires = "look_from")]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 60.0,
+        requires = "look_from"
+    )]
     pub fov: f32,
 
     /// Image / window size in pixels [default: 512x512 for stills, 1024x768 otherwise].

@@ -98,7 +98,9 @@ pub fn look_at_camera(
     fov_deg: f32,
 ) -> Result<CameraView, String> {
     if !(fov_deg > 0.0 && fov_deg < 180.0) {
-        return Err(format!("--fov {fov_deg}: the field of view must lie in (0, 180) degrees"));
+        return Err(format!(
+            "--fov {fov_deg}: the field of view must lie in (0, 180) degrees"
+        ));
     }
     if (at - from).length_squared() <= 0.0 {
         return Err("--look-from and --look-at are the same point".into());

@@ -111,7 +111,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         lf.radiance_bytes() as f64 / (1 << 20) as f64
     );
     let camera = match (cli.look_from, cli.look_at) {
-        (Some(from), Some(at)) => fly::look_at_camera(&lf, from, at, cli.fov).map_err(UsageError)?,
+        (Some(from), Some(at)) => {
+            fly::look_at_camera(&lf, from, at, cli.fov).map_err(UsageError)?
+        }
         _ => fly::start_camera(&lf, cli.camera.as_deref()).map_err(UsageError)?,
     };
     if let Some(out) = &cli.still {

@@ -1,6 +1,19 @@
-//! Bake pass `Cells` (`shaders/bake_cells.wgsl`). Group 1 bindings, in order: triangles (r), bin_start (r), bin_tris (r), cell_count (rw), cells (rw), overflow (rw).
+//! Bake pass `Cells` (`shaders/bake_cells.wgsl`): its pipeline, its group-1 layout and its bind
+//! group (one per one chunk of directions), built from the named bindings [`CellsBindings`].
 
 use super::common;
+
+common::bindings! {
+    /// Group 1 of `Cells`, in binding order.
+    CellsBindings {
+        triangles: READ,
+        bin_start: READ,
+        bin_tris: READ,
+        cell_count: READ_WRITE,
+        cells: READ_WRITE,
+        overflow: READ_WRITE,
+    }
+}
 
 pub struct CellsPass {
     pub layout: wgpu::BindGroupLayout,
@@ -9,15 +22,7 @@ pub struct CellsPass {
 
 impl CellsPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let entries: Vec<_> = [true, true, true, false, false, false]
-            .iter()
-            .enumerate()
-            .map(|(i, &ro)| common::storage(i as u32, ro))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Cells::pass_layout"),
-            entries: &entries,
-        });
+        let layout = common::pass_layout(device, "Cells", CellsBindings::LAYOUT);
         let pipeline = common::pipeline(
             device,
             "Cells",
@@ -28,7 +33,7 @@ impl CellsPass {
         Self { layout, pipeline }
     }
 
-    pub fn bind_group(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        common::bind_group(device, "Cells::bind_group", &self.layout, buffers)
+    pub fn bind_group(&self, device: &wgpu::Device, b: &CellsBindings) -> wgpu::BindGroup {
+        common::bind_group(device, "Cells::bind_group", &self.layout, &b.buffers())
     }
 }

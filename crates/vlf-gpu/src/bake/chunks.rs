@@ -5,8 +5,9 @@
 //! thousand triangles at 606 directions bins ~160 MiB of triangle entries at any resolution,
 //! more than lavapipe's 128 MiB binding (and real GPUs have a limit too).
 //!
-//! The split is greedy, in direction order, and shared by the propagator and the memory plan
-//! (`vlf-bake`'s `memory.rs`) so both see the same chunks.
+//! The split is greedy, in direction order, and made once by the bake's plan
+//! ([`super::BakePlan`]), which the propagator allocates from and `vlf-bake`'s memory budget
+//! reads, so both see the same chunks.
 
 use std::ops::Range;
 

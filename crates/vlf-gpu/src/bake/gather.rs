@@ -1,6 +1,20 @@
-//! Bake pass `Gather` (`shaders/bake_gather.wgsl`). Group 1 bindings, in order: faces (r), active (r), texel_center (r), cell_count (r), cells (r), crossings (r), acc (rw).
+//! Bake pass `Gather` (`shaders/bake_gather.wgsl`): its pipeline, its group-1 layout and its bind
+//! group (one per the scene), built from the named bindings [`GatherBindings`].
 
 use super::common;
+
+common::bindings! {
+    /// Group 1 of `Gather`, in binding order.
+    GatherBindings {
+        faces: READ,
+        active_texels: READ,
+        texel_center: READ,
+        cell_count: READ,
+        cells: READ,
+        crossings: READ,
+        acc: READ_WRITE,
+    }
+}
 
 pub struct GatherPass {
     pub layout: wgpu::BindGroupLayout,
@@ -9,15 +23,7 @@ pub struct GatherPass {
 
 impl GatherPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let entries: Vec<_> = [true, true, true, true, true, true, false]
-            .iter()
-            .enumerate()
-            .map(|(i, &ro)| common::storage(i as u32, ro))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Gather::pass_layout"),
-            entries: &entries,
-        });
+        let layout = common::pass_layout(device, "Gather", GatherBindings::LAYOUT);
         let pipeline = common::pipeline(
             device,
             "Gather",
@@ -28,7 +34,7 @@ impl GatherPass {
         Self { layout, pipeline }
     }
 
-    pub fn bind_group(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        common::bind_group(device, "Gather::bind_group", &self.layout, buffers)
+    pub fn bind_group(&self, device: &wgpu::Device, b: &GatherBindings) -> wgpu::BindGroup {
+        common::bind_group(device, "Gather::bind_group", &self.layout, &b.buffers())
     }
 }

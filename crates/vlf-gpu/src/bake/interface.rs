@@ -1,6 +1,21 @@
-//! Bake pass `Interface` (`shaders/bake_interface.wgsl`). Group 1 bindings, in order: faces (r), unshot texels+tiles (r), cell_count (r), cells (r), crossings (rw), tile_index (r), frames (r), spec_escape (rw).
+//! Bake pass `Interface` (`shaders/bake_interface.wgsl`): its pipeline, its group-1 layout and its bind
+//! group (one per the scene), built from the named bindings [`InterfaceBindings`].
 
 use super::common;
+
+common::bindings! {
+    /// Group 1 of `Interface`, in binding order.
+    InterfaceBindings {
+        faces: READ,
+        unshot: READ,
+        cell_count: READ,
+        cells: READ,
+        crossings: READ_WRITE,
+        tile_index: READ,
+        frames: READ,
+        spec_escape: READ_WRITE,
+    }
+}
 
 pub struct InterfacePass {
     pub layout: wgpu::BindGroupLayout,
@@ -9,15 +24,7 @@ pub struct InterfacePass {
 
 impl InterfacePass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let entries: Vec<_> = [true, true, true, true, false, true, true, false]
-            .iter()
-            .enumerate()
-            .map(|(i, &ro)| common::storage(i as u32, ro))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Interface::pass_layout"),
-            entries: &entries,
-        });
+        let layout = common::pass_layout(device, "Interface", InterfaceBindings::LAYOUT);
         let pipeline = common::pipeline(
             device,
             "Interface",
@@ -28,7 +35,7 @@ impl InterfacePass {
         Self { layout, pipeline }
     }
 
-    pub fn bind_group(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        common::bind_group(device, "Interface::bind_group", &self.layout, buffers)
+    pub fn bind_group(&self, device: &wgpu::Device, b: &InterfaceBindings) -> wgpu::BindGroup {
+        common::bind_group(device, "Interface::bind_group", &self.layout, &b.buffers())
     }
 }

@@ -1,6 +1,21 @@
-//! Bake pass `Reflect` (`shaders/bake_reflect.wgsl`). Group 1 bindings, in order: faces (r), cell_count (r), cells (r), crossings (r), tile_index (r), frames (r), items (r), next_tiles (rw).
+//! Bake pass `Reflect` (`shaders/bake_reflect.wgsl`): its pipeline, its group-1 layout and its bind
+//! group (one per one chunk of directions), built from the named bindings [`ReflectBindings`].
 
 use super::common;
+
+common::bindings! {
+    /// Group 1 of `Reflect`, in binding order.
+    ReflectBindings {
+        faces: READ,
+        cell_count: READ,
+        cells: READ,
+        crossings: READ,
+        tile_index: READ,
+        frames: READ,
+        items: READ,
+        next_tiles: READ_WRITE,
+    }
+}
 
 pub struct ReflectPass {
     pub layout: wgpu::BindGroupLayout,
@@ -9,15 +24,7 @@ pub struct ReflectPass {
 
 impl ReflectPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let entries: Vec<_> = [true, true, true, true, true, true, true, false]
-            .iter()
-            .enumerate()
-            .map(|(i, &ro)| common::storage(i as u32, ro))
-            .collect();
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Reflect::pass_layout"),
-            entries: &entries,
-        });
+        let layout = common::pass_layout(device, "Reflect", ReflectBindings::LAYOUT);
         let pipeline = common::pipeline(
             device,
             "Reflect",
@@ -28,7 +35,7 @@ impl ReflectPass {
         Self { layout, pipeline }
     }
 
-    pub fn bind_group(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
-        common::bind_group(device, "Reflect::bind_group", &self.layout, buffers)
+    pub fn bind_group(&self, device: &wgpu::Device, b: &ReflectBindings) -> wgpu::BindGroup {
+        common::bind_group(device, "Reflect::bind_group", &self.layout, &b.buffers())
     }
 }

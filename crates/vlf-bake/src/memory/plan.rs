@@ -1,0 +1,323 @@
+//! The items of a [`MemoryPlan`]: host memory of either path, and on the GPU path the buffers
+//! of the propagator's own `BakePlan` (formulas in the module documentation of `memory`).
+
+use vlf_core::bake::BakeScene;
+use vlf_core::bake::reference::{self, ReflectJob, SpecularSetup};
+use vlf_core::directions::DirectionSet;
+use vlf_core::lightfield::BakeParams;
+use vlf_core::psf::PsfGrid;
+use vlf_core::scene::Scene;
+use vlf_gpu::bake::{BakePlan, MirrorCounts};
+
+use super::{
+    BASELINE_BYTES, Budget, CROSSING_BYTES, MemoryPlan, PlanItem, SOFTWARE_DRIVER_BYTES, Split,
+};
+
+fn item(name: &str, place: &'static str, count: u64, each: u64, copies: u64) -> PlanItem {
+    PlanItem {
+        name: name.to_string(),
+        place,
+        count,
+        bytes_each: each,
+        copies,
+        bytes: count * each * copies,
+        split: None,
+    }
+}
+
+/// The GPU items of `plan`: one per buffer, one per chunked buffer with its chunks summed.
+fn gpu_items(plan: &BakePlan) -> Vec<PlanItem> {
+    use vlf_gpu::bake::BakeBuffer;
+    let mut items = Vec::new();
+    for kind in [
+        BakeBuffer::BinStart,
+        BakeBuffer::BinTris,
+        BakeBuffer::ReflectItems,
+    ] {
+        let parts: Vec<_> = plan.buffers.iter().filter(|b| b.buffer == kind).collect();
+        let each = parts.first().map_or(1, |b| b.element_bytes);
+        items.push(PlanItem {
+            name: format!("{} (all directions)", kind.name()),
+            place: "gpu",
+            count: parts.iter().map(|b| b.elements).sum(),
+            bytes_each: each,
+            copies: 1,
+            bytes: parts.iter().map(|b| b.size).sum(),
+            split: Some(Split {
+                part: format!("{}[k]", kind.name()),
+                buffers: parts.len() as u64,
+                largest: parts.iter().map(|b| b.size).max().unwrap_or(0),
+                cap: plan.chunk_cap,
+            }),
+        });
+    }
+    items.extend(
+        plan.buffers
+            .iter()
+            .filter(|b| !b.buffer.chunked())
+            .map(|b| PlanItem {
+                bytes: b.size,
+                ..item(b.buffer.name(), "gpu", b.elements, b.element_bytes, 1)
+            }),
+    );
+    items
+}
+
+/// What the CPU path's plan needs from every transport direction's bins: the longest tile
+/// bin (≥ 1), the most triangle entries binned in one direction, and the most cells the
+/// triangles' projected bounding boxes of one direction cover (widened by one cell, as the
+/// bins are), an upper bound on the rays that can cross them.
+fn scan_directions(
+    prep: &BakeScene,
+    dirs: &[reference::TransportDir],
+    grid: &PsfGrid,
+) -> (u32, u64, u64) {
+    let mut k_max = 1u32;
+    let mut binned_max = 0u64;
+    let mut box_cells_max = 0u64;
+    let (cell, n) = (grid.cell_size(), grid.n as i64);
+    let first = |x: f32| ((((x + 1.0) / cell - 0.5).floor() - 1.0) as i64).clamp(0, n - 1);
+    let last = |x: f32| ((((x + 1.0) / cell - 0.5).ceil() + 1.0) as i64).clamp(0, n - 1);
+    for d in dirs {
+        let proj = reference::project(prep, &d.frame);
+        let bins = reference::bin_triangles(&proj, grid);
+        k_max = k_max.max(bins.max_len());
+        binned_max = binned_max.max(bins.tris.len() as u64);
+        let box_cells: u64 = proj
+            .iter()
+            .map(|q| {
+                let lo = q[0].min(q[1]).min(q[2]);
+                let hi = q[0].max(q[1]).max(q[2]);
+                let w = last(hi.x) - first(lo.x) + 1;
+                let h = last(hi.y) - first(lo.y) + 1;
+                (w.max(0) * h.max(0)) as u64
+            })
+            .sum();
+        box_cells_max = box_cells_max.max(box_cells);
+    }
+    (k_max, binned_max, box_cells_max)
+}
+
+/// The plan for `scene` prepared as `prep` (not yet checked against the budget); `software`:
+/// the GPU path on a software adapter (whose driver lives in the process).
+pub fn plan_prepared(
+    scene: &Scene,
+    prep: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    gpu: bool,
+    software: bool,
+    budget: &Budget,
+) -> MemoryPlan {
+    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
+    let tiles2 = u64::from(grid.tiles_per_side()).pow(2);
+    let tris = prep.triangles.len() as u64;
+    let faces = prep.faces.len() as u64;
+    let x = prep.texel_count() as u64;
+
+    // The GPU path: the propagator's own plan (it bins every direction once, makes the chunks
+    // and the mirror tiles). The CPU path: the mirror tiles, exactly as SpecularSetup::new
+    // builds them, and the bins and bounding boxes of every direction.
+    let (gpu_plan, mirror, transport, k_max, binned_max, box_cells_max) = if gpu {
+        let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
+        let plan = BakePlan::new(prep, set, params, limit, None);
+        let binned_max = plan.direction_bytes.iter().map(|b| b.bin_tris / 4).max();
+        let (mirror, transport, k_max) =
+            (plan.mirror.clone(), plan.transport_directions, plan.k_max);
+        (
+            Some(plan),
+            mirror,
+            transport,
+            k_max,
+            binned_max.unwrap_or(0),
+            0,
+        )
+    } else {
+        let (dirs, _quadrature) = reference::all_directions(prep, set, params);
+        let mirror = MirrorCounts::new(
+            SpecularSetup::new(prep, set, &grid, &dirs).as_ref(),
+            dirs.len(),
+        );
+        let (k_max, binned_max, box_cells_max) = scan_directions(prep, &dirs, &grid);
+        (None, mirror, dirs.len(), k_max, binned_max, box_cells_max)
+    };
+    let tile_values = mirror.tile_values;
+    let index_words = mirror.index_words;
+    let jobs = mirror.reflect_jobs;
+
+    let enc = vlf_core::lightfield::DEFAULT_ENCODING.bytes_per_texel() as u64;
+    let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
+    let job_bytes = size_of::<ReflectJob>() as u64;
+    let texture_texels: u64 = scene.textures.iter().map(|t| t.pixels.len() as u64).sum();
+    let mut items = vec![
+        item(
+            "process baseline (program, libraries)",
+            "host",
+            BASELINE_BYTES,
+            1,
+            1,
+        ),
+        item(
+            "scene triangles (world)",
+            "host",
+            scene.triangles.len() as u64,
+            size_of::<vlf_core::scene::Triangle>() as u64,
+            1,
+        ),
+        item(
+            "scene textures (decoded, RGBA f32)",
+            "host",
+            texture_texels,
+            16,
+            1,
+        ),
+    ];
+    if gpu && software {
+        items.push(item(
+            "software GPU driver (Mesa, LLVM, shaders)",
+            "host",
+            SOFTWARE_DRIVER_BYTES,
+            1,
+            1,
+        ));
+    }
+    // The items above do not depend on the parameters.
+    let fixed = items.len();
+    items.extend([
+        item("triangles (prepared)", "host", tris, 48, 1),
+        item(
+            "texel arrays (area, centre, albedo, emission)",
+            "host",
+            x,
+            52,
+            1,
+        ),
+        item("texel radiance (unshot, next, total)", "host", x, 16, 3),
+    ]);
+    if let Some(plan) = &gpu_plan {
+        let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;
+        // The propagator bins one direction at a time and writes it to its chunk; the writes'
+        // staging copies live until the next submission, every UPLOAD_FLUSH_BYTES.
+        let upload_max = plan.direction_bytes.iter().map(|b| b.sum()).max();
+        let total: u64 = plan.chunks.iter().map(|c| c.bytes.sum()).sum();
+        let staging = total.min(vlf_gpu::bake::UPLOAD_FLUSH_BYTES + upload_max.unwrap_or(0));
+        items.extend([
+            item("texel centres (upload copy)", "host", x, 16, 1),
+            item("accumulators (read back)", "host", x, 32, 2),
+            item(
+                "tile values (unshot, next, total)",
+                "host",
+                tile_values,
+                16,
+                3,
+            ),
+            item(
+                "tile bins and starts (one direction)",
+                "host",
+                2 * (tiles2 + 1) + binned_max,
+                4,
+                1,
+            ),
+            item("projected triangles (one direction)", "host", tris, 36, 1),
+            item("upload staging (bins, items)", "host", staging, 1, 1),
+            item(
+                "reflect jobs (until the items are built)",
+                "host",
+                jobs,
+                job_bytes,
+                1,
+            ),
+            item(
+                "reflect items",
+                "host",
+                mirror.reflect_items(),
+                item_bytes,
+                1,
+            ),
+            item("encoded output file", "host", file, 1, 1),
+        ]);
+        items.extend(gpu_items(plan));
+    } else {
+        let n2 = u64::from(params.resolution).pow(2);
+        let m2 = u64::from(params.tile).pow(2);
+        let crossings = (n2 * u64::from(k_max))
+            .min(m2 * binned_max)
+            .min(box_cells_max);
+        items.extend([
+            item("accumulators and texel faces", "host", x, 36, 1),
+            item(
+                "tile values (unshot, next, total)",
+                "host",
+                tile_values,
+                16,
+                3,
+            ),
+            item("tile index", "host", index_words, 4, 1),
+            item("reflect jobs", "host", jobs, job_bytes, 1),
+            item(
+                "ray crossing lists (one direction)",
+                "host",
+                crossings,
+                CROSSING_BYTES,
+                1,
+            ),
+            item(
+                "tile bins (one direction)",
+                "host",
+                tiles2 + 1 + binned_max,
+                4,
+                1,
+            ),
+            item("projected triangles (one direction)", "host", tris, 36, 1),
+            item("encoded output file", "host", file, 1, 1),
+        ]);
+    }
+    // Every item's count fits easily; saturate anyway so absurd inputs cannot wrap.
+    let sum = |items: &[PlanItem], place: &str| {
+        items
+            .iter()
+            .filter(|i| i.place == place)
+            .fold(0u64, |s, i| s.saturating_add(i.bytes))
+    };
+    // Heap fragmentation and freed-but-resident memory (measured: the peak resident size of
+    // CPU bakes of the shared scenes is within +6 % of the items above).
+    let overhead = sum(&items, "host") / 10;
+    items.push(item(
+        "allocator overhead (10 % of the above)",
+        "host",
+        overhead,
+        1,
+        1,
+    ));
+    let host_bytes = sum(&items, "host");
+    let device_bytes = sum(&items, "gpu");
+    let fixed_bytes = items[..fixed].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
+    let largest_buffer = items
+        .iter()
+        .filter(|i| i.place == "gpu")
+        .map(PlanItem::largest_buffer)
+        .max_by_key(|i| i.bytes);
+    MemoryPlan {
+        path: if gpu { "gpu" } else { "cpu" },
+        resolution: params.resolution,
+        tile: params.tile,
+        directions: set.len(),
+        transport_directions: transport,
+        triangles: tris,
+        faces,
+        texels: x,
+        tile_values,
+        k_max,
+        binned_max,
+        items,
+        host_bytes,
+        fixed_bytes,
+        device_bytes,
+        largest_buffer,
+        budget: budget.clone(),
+        over_budget: Vec::new(),
+        lowered_from: None,
+        plan_s: 0.0,
+        gpu: gpu_plan,
+    }
+}

@@ -1,0 +1,209 @@
+//! One propagation iteration on the GPU: upload the unshot radiance, clear the accumulators,
+//! run the passes of every direction, read the accumulators back and finish the iteration on
+//! the CPU with `reference::finish_iteration`.
+
+use glam::Vec4;
+use vlf_core::bake::reference::{self, EnergyStats, IterationEnergy, TexelAccum};
+
+use super::pipelines::BakePipelines;
+use super::resources::{Host, SceneResources};
+use super::{DIR_STRIDE, GpuBakeError, Progress};
+use crate::GpuContext;
+use crate::layout;
+use crate::passes::dispatch_2d;
+use crate::readback::read_buffer;
+
+/// Directions encoded per submission (progress granularity).
+const DIRS_PER_SUBMIT: usize = 32;
+
+/// The radiance the host keeps between iterations.
+pub(super) struct Radiance {
+    /// Unshot radiance of the texels (sent in the next iteration).
+    pub unshot: Vec<[f32; 4]>,
+    pub unshot_tiles: Vec<[f32; 4]>,
+    pub total: Vec<[f32; 4]>,
+    pub total_tiles: Vec<[f32; 4]>,
+    /// Scratch: the radiance the current iteration leaves unshot.
+    next: Vec<[f32; 4]>,
+    /// Irradiance per texel, all iterations (what the final gather reads).
+    pub irradiance: Vec<[f32; 4]>,
+    pub energy: EnergyStats,
+}
+
+impl Radiance {
+    /// Before the first iteration: the emission is unshot and counts in the total.
+    pub fn new(host: &Host) -> Radiance {
+        let scene = host.scene;
+        let tile_len = host.tile_len();
+        Radiance {
+            unshot: scene.emission.clone(),
+            unshot_tiles: vec![[0f32; 4]; tile_len],
+            total_tiles: vec![[0f32; 4]; tile_len],
+            total: scene.emission.clone(),
+            next: vec![[0f32; 4]; host.texels()],
+            irradiance: vec![[0f32; 4]; host.texels()],
+            energy: EnergyStats {
+                emitted: scene
+                    .emitted_power()
+                    .to_array()
+                    .iter()
+                    .map(|&x| f64::from(x))
+                    .sum(),
+                ..Default::default()
+            },
+        }
+    }
+}
+
+/// Iteration `it` of `max_iter`: propagates `state`'s unshot radiance along every direction
+/// (the suns in the first iteration only) and adds what arrives to the totals.
+pub(super) fn run_iteration(
+    ctx: &GpuContext,
+    pipelines: &BakePipelines,
+    res: &SceneResources,
+    host: &Host,
+    state: &mut Radiance,
+    (it, max_iter): (u32, u32),
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(), GpuBakeError> {
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let b = &res.buffers;
+    let first = it == 0;
+    let n_tex = host.texels();
+    let tile_len = host.tile_len();
+    queue.write_buffer(&b.unshot, 0, bytemuck::cast_slice(&state.unshot));
+    if tile_len > 0 {
+        queue.write_buffer(
+            &b.unshot,
+            n_tex as u64 * 16,
+            bytemuck::cast_slice(&state.unshot_tiles),
+        );
+    }
+    if it == 1 {
+        // The sky enters in the first iteration only.
+        queue.write_buffer(&b.directions, 0, &host.direction_uniforms(glam::Vec3::ZERO));
+    }
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("Bake::clear"),
+    });
+    encoder.clear_buffer(&b.accumulators, 0, None);
+    encoder.clear_buffer(&b.next_tiles, 0, None);
+    encoder.clear_buffer(&b.spec_escape, 0, None);
+    queue.submit(Some(encoder.finish()));
+
+    let n = host.params.resolution;
+    let m = host.params.tile;
+    let max_dim = device.limits().max_compute_workgroups_per_dimension;
+    let cell_groups = dispatch_2d(n * n, 64, max_dim);
+    let texel_groups = dispatch_2d(host.active.len() as u32, 64, max_dim);
+    let active_dirs: Vec<usize> = (0..host.setup.dirs.len())
+        .filter(|&i| i < host.setup.quadrature || first)
+        .collect();
+    for (submit_i, batch) in active_dirs.chunks(DIRS_PER_SUBMIT).enumerate() {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("Bake::directions"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("Bake::pass"),
+                timestamp_writes: None,
+            });
+            for &d in batch {
+                let offset = [(d as u64 * DIR_STRIDE) as u32];
+                let chunk = &res.chunks[host.slots[d].chunk];
+                pass.set_bind_group(0, &res.globals, &offset);
+                pass.set_pipeline(&pipelines.cells.pipeline);
+                pass.set_bind_group(1, &chunk.cells, &[]);
+                pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                pass.set_pipeline(&pipelines.interface.pipeline);
+                pass.set_bind_group(1, &res.interface, &[]);
+                pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                if !host.active.is_empty() {
+                    pass.set_pipeline(&pipelines.gather.pipeline);
+                    pass.set_bind_group(1, &res.gather, &[]);
+                    pass.dispatch_workgroups(texel_groups.0, texel_groups.1, 1);
+                }
+                let count = host.items(d);
+                if count > 0 {
+                    let g = dispatch_2d(count * m * m, 64, max_dim);
+                    pass.set_pipeline(&pipelines.reflect.pipeline);
+                    pass.set_bind_group(1, &chunk.reflect, &[]);
+                    pass.dispatch_workgroups(g.0, g.1, 1);
+                }
+            }
+        }
+        queue.submit(Some(encoder.finish()));
+        let _ = device.poll(wgpu::PollType::wait_indefinitely());
+        progress(Progress {
+            iteration: it,
+            max_iterations: max_iter,
+            directions_done: (submit_i * DIRS_PER_SUBMIT + batch.len()).min(active_dirs.len()),
+            directions: active_dirs.len(),
+        });
+    }
+
+    let over: Vec<u32> =
+        read_buffer(device, queue, &b.overflow).map_err(|_| GpuBakeError::Readback)?;
+    if over[0] > 0 {
+        return Err(GpuBakeError::DepthComplexity {
+            crossings: over[0],
+            max: host.plan.crossings_per_ray(),
+        });
+    }
+    let gpu_acc: Vec<layout::TexelAccum> =
+        read_buffer(device, queue, &b.accumulators).map_err(|_| GpuBakeError::Readback)?;
+    let acc_host: Vec<TexelAccum> = gpu_acc
+        .iter()
+        .take(n_tex)
+        .map(|a| TexelAccum {
+            irradiance: Vec4::from(a.irradiance),
+            open: Vec4::from(a.open),
+        })
+        .collect();
+    let sky = if first {
+        host.params.sky
+    } else {
+        glam::Vec3::ZERO
+    };
+    let scene = host.scene;
+    let mut e = reference::finish_iteration(
+        scene,
+        &host.tex_face,
+        &acc_host,
+        &state.unshot,
+        sky,
+        &mut state.next,
+        &mut state.irradiance,
+    );
+    if let Some(sp) = &host.setup.spec {
+        let mut next_tiles: Vec<[f32; 4]> =
+            read_buffer(device, queue, &b.next_tiles).map_err(|_| GpuBakeError::Readback)?;
+        next_tiles.truncate(tile_len);
+        let esc: Vec<[f32; 4]> =
+            read_buffer(device, queue, &b.spec_escape).map_err(|_| GpuBakeError::Readback)?;
+        e.escaped += esc
+            .iter()
+            .map(|v| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]))
+            .sum::<f64>();
+        let (set, grid) = (host.set, &host.setup.grid);
+        e.sent += reference::tile_power(&sp.index, &state.unshot_tiles, set, grid);
+        e.next += reference::tile_power(&sp.index, &next_tiles, set, grid);
+        reference::accumulate(&mut state.total_tiles, &next_tiles);
+        state.unshot_tiles = next_tiles;
+    }
+    log_energy(it, &e);
+    state.energy.record(&e);
+    reference::accumulate(&mut state.total, &state.next);
+    std::mem::swap(&mut state.unshot, &mut state.next);
+    Ok(())
+}
+
+fn log_energy(it: u32, e: &IterationEnergy) {
+    log::debug!(
+        "GPU iteration {it}: sent {:.5} received {:.5} escaped {:.5} next {:.5}",
+        e.sent,
+        e.received,
+        e.escaped,
+        e.next
+    );
+}
