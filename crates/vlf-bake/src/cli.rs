@@ -1,6 +1,7 @@
 //! Command-line interface of `vlf-bake`.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use glam::Vec3;
 use std::path::PathBuf;
 
 #[derive(Parser, Debug)]
@@ -222,12 +223,12 @@ pub enum Command {
     },
     /// Render an unbiased path-traced reference image (EXR) with the conventions of the shared
     /// Mitsuba references, to validate bakes without any other tool.
-    Reference(crate::reference::ReferenceArgs),
+    Reference(ReferenceArgs),
     /// Speed against accuracy on one scene: bake over a grid of parameters, render one view of
     /// each, compare with a reference image; the path tracer's error-vs-time curve and the
     /// matrix radiosity baseline on the same view. Writes one CSV row per point (see
     /// docs/ACCURACY.md; `cargo xtask chart` runs it over the shared scenes and draws charts).
-    Sweep(crate::sweep::SweepArgs),
+    Sweep(SweepArgs),
     /// Describe a light-field file: parameters, counts, memory by section, bake statistics.
     Info {
         /// The light-field file.
@@ -252,4 +253,177 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// `WxH` image size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Size(pub u32, pub u32);
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected WIDTHxHEIGHT (e.g. 256x256), got `{s}`");
+        let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+        let w: u32 = w.trim().parse().map_err(|_| bad())?;
+        let h: u32 = h.trim().parse().map_err(|_| bad())?;
+        if w == 0 || h == 0 || w > 16_384 || h > 16_384 {
+            return Err(format!(
+                "image size {w}x{h} must be between 1 and 16384 on each side"
+            ));
+        }
+        Ok(Size(w, h))
+    }
+}
+
+/// `x,y,z` point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Point(pub Vec3);
+
+impl std::str::FromStr for Point {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let v: Result<Vec<f32>, _> = s.split(',').map(|x| x.trim().parse::<f32>()).collect();
+        match v.as_deref() {
+            Ok([x, y, z]) if [x, y, z].iter().all(|c| c.is_finite()) => {
+                Ok(Point(Vec3::new(*x, *y, *z)))
+            }
+            _ => Err(format!("expected x,y,z (three finite numbers), got `{s}`")),
+        }
+    }
+}
+
+/// GPU kernel organisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum KernelArg {
+    /// Generate / intersect / shade / shadow kernels per bounce over compacted ray queues.
+    Wavefront,
+    /// One invocation traces a whole path.
+    Megakernel,
+}
+
+/// Arguments of `vlf-bake reference` (`crate::reference`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct ReferenceArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output image: OpenEXR, float32 linear R, G, B, row 0 at the top (written atomically).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 1024)]
+    pub spp: u32,
+    /// Index of the glTF camera to render from (default 0).
+    #[arg(long, conflicts_with = "look_from")]
+    pub camera: Option<usize>,
+    /// Image size WIDTHxHEIGHT; the aspect ratio is width/height whatever the camera says.
+    #[arg(long, default_value = "256x256")]
+    pub size: Size,
+    /// Constant sky radiance `R,G,B` (or one value) seen by rays that leave the scene.
+    #[arg(long)]
+    pub sky: Option<Rgb>,
+    /// Seed of the random streams (the image is deterministic for a given seed).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Eye position `x,y,z` of a look-at camera (for scenes without a glTF camera).
+    #[arg(long, requires = "look_at")]
+    pub look_from: Option<Point>,
+    /// Target point `x,y,z` of the look-at camera.
+    #[arg(long, requires = "look_from")]
+    pub look_at: Option<Point>,
+    /// Vertical field of view of the look-at camera, in degrees.
+    #[arg(long, default_value_t = 60.0, requires = "look_from")]
+    pub fov: f32,
+    /// GPU kernel organisation (when the GPU is used).
+    #[arg(long, value_enum, default_value_t = KernelArg::Wavefront)]
+    pub gpu_kernel: KernelArg,
+    /// Worker threads of the CPU path tracer (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Print a machine-readable JSON summary on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How many parameter sets to bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GridArg {
+    /// The presets (draft, auto) and directions {126, 606} × resolution {32, 64}.
+    Quick,
+    /// Quick plus directions {246, 1126}, resolution 128, and variations of iterations,
+    /// perturbed directions and tile size around the default.
+    Full,
+}
+
+/// Arguments of `vlf-bake sweep` (`crate::sweep`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct SweepArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Reference image (linear EXR, e.g. from `vlf-bake reference` or ../shared/reference);
+    /// every render is made at its size.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Output CSV (written atomically after every point).
+    #[arg(long)]
+    pub csv: PathBuf,
+    /// Parameter grid.
+    #[arg(long, value_enum, default_value_t = GridArg::Full)]
+    pub grid: GridArg,
+    /// Index of the glTF camera to render (default 0).
+    #[arg(long, conflicts_with = "look_from")]
+    pub camera: Option<usize>,
+    /// Eye `x,y,z` of a look-at camera (world space, for scenes without a glTF camera).
+    #[arg(long, requires = "look_at")]
+    pub look_from: Option<Point>,
+    /// Target `x,y,z` of the look-at camera.
+    #[arg(long, requires = "look_from")]
+    pub look_at: Option<Point>,
+    /// Vertical field of view of the look-at camera, degrees.
+    #[arg(long, default_value_t = 60.0, requires = "look_from")]
+    pub fov: f32,
+    /// Constant sky radiance `R,G,B` for the bakes, the path tracer and radiosity alike.
+    #[arg(long)]
+    pub sky: Option<Rgb>,
+    /// Path tracer curve: 1, 2, 4, … up to this many samples per pixel (0: no path tracer).
+    #[arg(long, default_value_t = 256)]
+    pub spp_max: u32,
+    /// Seed of the path tracer's curve (use one that differs from the reference's).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u32,
+    /// Jittered samples per pixel of the light-field renders (the reference's pixel is an
+    /// average over the pixel square).
+    #[arg(long, default_value_t = 16)]
+    pub render_spp: u32,
+    /// Also bake the high preset (slow: 2,206 directions and 128–512 rays per side).
+    #[arg(long)]
+    pub with_high: bool,
+    /// Bake only the grid points with these labels (comma-separated, e.g. `auto,l=126 N=128`).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Skip the matrix radiosity baseline.
+    #[arg(long)]
+    pub no_radiosity: bool,
+    /// Also write every rendered image as EXR and as a PNG preview (exposed so that the
+    /// reference's mean luminance is 0.18, ACES tone map) into this directory.
+    #[arg(long)]
+    pub images: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_sizes_and_points() {
+        assert_eq!("256x128".parse::<Size>(), Ok(Size(256, 128)));
+        assert_eq!("64×64".parse::<Size>(), Ok(Size(64, 64)));
+        assert!("0x5".parse::<Size>().is_err());
+        assert!("256".parse::<Size>().is_err());
+        assert_eq!(
+            "1,2.5,-3".parse::<Point>(),
+            Ok(Point(Vec3::new(1.0, 2.5, -3.0)))
+        );
+        assert!("1,2".parse::<Point>().is_err());
+        assert!("1,nan,2".parse::<Point>().is_err());
+    }
 }

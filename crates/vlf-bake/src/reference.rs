@@ -8,7 +8,6 @@
 //! `auto` → a hardware GPU when there is one, else the CPU tracer: on a software adapter
 //! (lavapipe) the GPU kernels run on the same CPU cores about 3× slower than the native tracer.
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context as _;
@@ -18,96 +17,7 @@ use vlf_core::image::{Image, write_exr};
 use vlf_core::pathtrace::{self, PinholeCamera, PreparedScene, RenderSettings};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
 
-use crate::cli::{DeviceArg, Rgb};
-
-/// `WxH` image size.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Size(pub u32, pub u32);
-
-impl std::str::FromStr for Size {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("expected WIDTHxHEIGHT (e.g. 256x256), got `{s}`");
-        let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
-        let w: u32 = w.trim().parse().map_err(|_| bad())?;
-        let h: u32 = h.trim().parse().map_err(|_| bad())?;
-        if w == 0 || h == 0 || w > 16_384 || h > 16_384 {
-            return Err(format!(
-                "image size {w}x{h} must be between 1 and 16384 on each side"
-            ));
-        }
-        Ok(Size(w, h))
-    }
-}
-
-/// `x,y,z` point.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Point(pub Vec3);
-
-impl std::str::FromStr for Point {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let v: Result<Vec<f32>, _> = s.split(',').map(|x| x.trim().parse::<f32>()).collect();
-        match v.as_deref() {
-            Ok([x, y, z]) if [x, y, z].iter().all(|c| c.is_finite()) => {
-                Ok(Point(Vec3::new(*x, *y, *z)))
-            }
-            _ => Err(format!("expected x,y,z (three finite numbers), got `{s}`")),
-        }
-    }
-}
-
-/// GPU kernel organisation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum KernelArg {
-    /// Generate / intersect / shade / shadow kernels per bounce over compacted ray queues.
-    Wavefront,
-    /// One invocation traces a whole path.
-    Megakernel,
-}
-
-/// Arguments of `vlf-bake reference`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct ReferenceArgs {
-    /// The scene (.gltf or .glb).
-    pub scene: PathBuf,
-    /// Output image: OpenEXR, float32 linear R, G, B, row 0 at the top (written atomically).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 1024)]
-    pub spp: u32,
-    /// Index of the glTF camera to render from (default 0).
-    #[arg(long, conflicts_with = "look_from")]
-    pub camera: Option<usize>,
-    /// Image size WIDTHxHEIGHT; the aspect ratio is width/height whatever the camera says.
-    #[arg(long, default_value = "256x256")]
-    pub size: Size,
-    /// Constant sky radiance `R,G,B` (or one value) seen by rays that leave the scene.
-    #[arg(long)]
-    pub sky: Option<Rgb>,
-    /// Seed of the random streams (the image is deterministic for a given seed).
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
-    /// Eye position `x,y,z` of a look-at camera (for scenes without a glTF camera).
-    #[arg(long, requires = "look_at")]
-    pub look_from: Option<Point>,
-    /// Target point `x,y,z` of the look-at camera.
-    #[arg(long, requires = "look_from")]
-    pub look_at: Option<Point>,
-    /// Vertical field of view of the look-at camera, in degrees.
-    #[arg(long, default_value_t = 60.0, requires = "look_from")]
-    pub fov: f32,
-    /// GPU kernel organisation (when the GPU is used).
-    #[arg(long, value_enum, default_value_t = KernelArg::Wavefront)]
-    pub gpu_kernel: KernelArg,
-    /// Worker threads of the CPU path tracer (0 = all cores).
-    #[arg(long, default_value_t = 0)]
-    pub threads: usize,
-    /// Print a machine-readable JSON summary on stdout.
-    #[arg(long)]
-    pub json: bool,
-}
+use crate::cli::{DeviceArg, KernelArg, Point, ReferenceArgs, Size};
 
 /// What `--json` prints.
 #[derive(Serialize)]
@@ -306,23 +216,4 @@ pub fn reference_command(
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parses_sizes_and_points() {
-        assert_eq!("256x128".parse::<Size>(), Ok(Size(256, 128)));
-        assert_eq!("64×64".parse::<Size>(), Ok(Size(64, 64)));
-        assert!("0x5".parse::<Size>().is_err());
-        assert!("256".parse::<Size>().is_err());
-        assert_eq!(
-            "1,2.5,-3".parse::<Point>(),
-            Ok(Point(Vec3::new(1.0, 2.5, -3.0)))
-        );
-        assert!("1,2".parse::<Point>().is_err());
-        assert!("1,nan,2".parse::<Point>().is_err());
-    }
 }

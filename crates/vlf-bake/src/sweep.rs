@@ -28,75 +28,9 @@ use vlf_gpu::render::{CameraView, Renderer};
 
 use crate::bake::{bake_scene, resolve_params};
 use crate::batch::write_bytes_atomic;
-use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg, Rgb};
+use crate::cli::{BakeArgs, DeviceArg, GridArg, IterationsArg, Point, QualityArg, Rgb, SweepArgs};
 use crate::memory::Budget;
-use crate::reference::Point;
 use crate::{Compute, open_device};
-
-/// How many parameter sets to bake.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum GridArg {
-    /// The presets (draft, auto) and directions {126, 606} × resolution {32, 64}.
-    Quick,
-    /// Quick plus directions {246, 1126}, resolution 128, and variations of iterations,
-    /// perturbed directions and tile size around the default.
-    Full,
-}
-
-/// Arguments of `vlf-bake sweep`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct SweepArgs {
-    /// The scene (.gltf or .glb).
-    pub scene: PathBuf,
-    /// Reference image (linear EXR, e.g. from `vlf-bake reference` or ../shared/reference);
-    /// every render is made at its size.
-    #[arg(long)]
-    pub reference: PathBuf,
-    /// Output CSV (written atomically after every point).
-    #[arg(long)]
-    pub csv: PathBuf,
-    /// Parameter grid.
-    #[arg(long, value_enum, default_value_t = GridArg::Full)]
-    pub grid: GridArg,
-    /// Index of the glTF camera to render (default 0).
-    #[arg(long, conflicts_with = "look_from")]
-    pub camera: Option<usize>,
-    /// Eye `x,y,z` of a look-at camera (world space, for scenes without a glTF camera).
-    #[arg(long, requires = "look_at")]
-    pub look_from: Option<Point>,
-    /// Target `x,y,z` of the look-at camera.
-    #[arg(long, requires = "look_from")]
-    pub look_at: Option<Point>,
-    /// Vertical field of view of the look-at camera, degrees.
-    #[arg(long, default_value_t = 60.0, requires = "look_from")]
-    pub fov: f32,
-    /// Constant sky radiance `R,G,B` for the bakes, the path tracer and radiosity alike.
-    #[arg(long)]
-    pub sky: Option<Rgb>,
-    /// Path tracer curve: 1, 2, 4, … up to this many samples per pixel (0: no path tracer).
-    #[arg(long, default_value_t = 256)]
-    pub spp_max: u32,
-    /// Seed of the path tracer's curve (use one that differs from the reference's).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u32,
-    /// Jittered samples per pixel of the light-field renders (the reference's pixel is an
-    /// average over the pixel square).
-    #[arg(long, default_value_t = 16)]
-    pub render_spp: u32,
-    /// Also bake the high preset (slow: 2,206 directions and 128–512 rays per side).
-    #[arg(long)]
-    pub with_high: bool,
-    /// Bake only the grid points with these labels (comma-separated, e.g. `auto,l=126 N=128`).
-    #[arg(long, value_delimiter = ',')]
-    pub only: Vec<String>,
-    /// Skip the matrix radiosity baseline.
-    #[arg(long)]
-    pub no_radiosity: bool,
-    /// Also write every rendered image as EXR and as a PNG preview (exposed so that the
-    /// reference's mean luminance is 0.18, ACES tone map) into this directory.
-    #[arg(long)]
-    pub images: Option<PathBuf>,
-}
 
 /// One measured point.
 #[derive(Clone, Debug, Default)]
