@@ -17,7 +17,7 @@ use crate::readback::read_buffer;
 const DIRS_PER_SUBMIT: usize = 32;
 
 /// The radiance the host keeps between iterations.
-pub(super) struct Radiance {
+pub(super) struct HostRadiance {
     /// Unshot radiance of the texels (sent in the next iteration).
     pub unshot: Vec<[f32; 4]>,
     pub unshot_tiles: Vec<[f32; 4]>,
@@ -30,12 +30,12 @@ pub(super) struct Radiance {
     pub energy: EnergyStats,
 }
 
-impl Radiance {
+impl HostRadiance {
     /// Before the first iteration: the emission is unshot and counts in the total.
-    pub fn new(host: &Host) -> Radiance {
+    pub fn new(host: &Host) -> HostRadiance {
         let scene = host.scene;
         let tile_len = host.tile_len();
-        Radiance {
+        HostRadiance {
             unshot: scene.emission.clone(),
             unshot_tiles: vec![[0f32; 4]; tile_len],
             total_tiles: vec![[0f32; 4]; tile_len],
@@ -62,7 +62,7 @@ pub(super) fn run_iteration(
     pipelines: &BakePipelines,
     res: &SceneResources,
     host: &Host,
-    state: &mut Radiance,
+    state: &mut HostRadiance,
     (it, max_iter): (u32, u32),
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), GpuBakeError> {

@@ -150,7 +150,7 @@ fn run(
 ) -> Result<Propagated, GpuBakeError> {
     let pipelines = BakePipelines::of(ctx);
     let res = SceneResources::build(ctx, &pipelines, &mut host)?;
-    let mut state = iteration::Radiance::new(&host);
+    let mut state = iteration::HostRadiance::new(&host);
     let (max_iter, threshold) = reference::stopping(host.params.iterations);
     let mut iterations = 0;
     for it in 0..max_iter {
