@@ -203,12 +203,17 @@ fn bits(v: &[[f32; 4]]) -> Vec<[u32; 4]> {
     v.iter().map(|x| x.map(f32::to_bits)).collect()
 }
 
-/// `a` and `b` are the same bits: radiance, mirror tiles, iterations and energy sums.
+/// `a` and `b` are the same bits: radiance, irradiance, mirror tiles, iterations and energy
+/// sums.
 fn assert_identical(a: &Propagated, b: &Propagated, what: &str) {
     assert_eq!(a.iterations, b.iterations, "{what}: iterations");
     assert!(
         bits(&a.radiance) == bits(&b.radiance),
         "{what}: texel radiance differs"
+    );
+    assert!(
+        bits(&a.irradiance) == bits(&b.irradiance),
+        "{what}: texel irradiance differs"
     );
     match (&a.tiles, &b.tiles) {
         (None, None) => {}
@@ -280,6 +285,7 @@ fn chunked_bins_give_identical_bits() {
         let cpu = reference::propagate(&prep, &set, &params);
         let (mean, p99) = difference(&prep, &cpu.radiance, &one.radiance, 1e-4);
         let same = bits(&cpu.radiance) == bits(&one.radiance)
+            && bits(&cpu.irradiance) == bits(&one.irradiance)
             && cpu.tiles.as_ref().map(|t| bits(&t.1)) == one.tiles.as_ref().map(|t| bits(&t.1));
         eprintln!(
             "{asset}: {} chunks / {} directions; GPU = CPU bit for bit: {same} (mean {mean:.2e}, p99 {p99:.2e})",
