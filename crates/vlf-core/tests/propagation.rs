@@ -121,6 +121,52 @@ fn open_plane_under_sky_reads_albedo_times_sky() {
     );
 }
 
+/// A sun lights only the side of a plane that faces it: E_sun·cos θ on the upper side, nothing
+/// on the lower one (a sun's light travels one way along its direction, unlike the quadrature
+/// directions, which carry light both ways).
+#[test]
+fn a_sun_lights_only_the_side_facing_it() {
+    let rho = 0.5;
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
+    b.quad(
+        [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+        ],
+        m,
+    );
+    let mut scene = b.build("sun plane");
+    let e_sun = Vec3::new(3.0, 2.0, 1.0);
+    let travel = Vec3::new(0.5, -0.75f32.sqrt(), 0.0); // 30° from the vertical, downwards
+    scene.suns.push(vlf_core::scene::Sun {
+        name: None,
+        direction: travel,
+        irradiance: e_sun,
+    });
+    let params = small(46, 32, Iterations::Fixed(1));
+    let prep = BakeScene::new(&scene, &params).unwrap();
+    let set = DirectionSet::at_least(params.directions).unwrap();
+    let out = reference::propagate(&prep, &set, &params);
+    // Which side faces up depends on the face's winding: find it.
+    let up = if prep.faces[0].normal().y > 0.0 { 0 } else { 1 };
+    let lit = e_sun * 0.75f32.sqrt();
+    let (mean, max_dev) = face_stats(&prep, &out.irradiance, 0, up, lit);
+    assert!(
+        max_dev < 1e-3,
+        "upper side: mean {mean:?} want {lit:?}, max dev {max_dev}"
+    );
+    let (mean, _) = face_stats(&prep, &out.irradiance, 0, 1 - up, Vec3::ONE);
+    assert_eq!(mean, Vec3::ZERO, "lower side");
+    assert!(
+        out.energy.relative_imbalance().abs() < 1e-3,
+        "{:?}",
+        out.energy
+    );
+}
+
 /// Energy bookkeeping on the Cornell box: emitted = absorbed + escaped + unshot remainder.
 #[test]
 fn cornell_energy_balances_within_half_a_percent() {

@@ -18,6 +18,8 @@ pub struct TexelSample {
     pub open: [f32; 2],
     /// |n·w|.
     pub cos: f32,
+    /// The side that faces −w: light travelling +w (a sun's) reaches only this side.
+    pub upstream_side: usize,
     /// False when no nearby ray crosses the texel's face (direction missing for this texel).
     pub valid: bool,
 }
@@ -117,6 +119,7 @@ pub fn sample_texel(
     if acc.weight == 0.0 {
         return TexelSample {
             cos: ndw.abs(),
+            upstream_side: usize::from(ndw >= 0.0),
             ..Default::default()
         };
     }
@@ -134,6 +137,7 @@ pub fn sample_texel(
         arriving,
         open,
         cos: ndw.abs(),
+        upstream_side: usize::from(ndw >= 0.0),
         valid: true,
     }
 }

@@ -105,7 +105,12 @@ pub fn gather_direction(
         for (side, tx) in [(0usize, t), (1, back)] {
             let a = &mut acc[tx];
             match dir.sun {
-                Some(e_sun) => a.open += (e_sun * s.cos * s.open[side]).extend(0.0),
+                // A sun's light travels +w only: it reaches the side facing −w, through the
+                // first crossing of its ray (`open` is then the "first" fraction).
+                Some(e_sun) if side == s.upstream_side => {
+                    a.open += (e_sun * s.cos * s.open[side]).extend(0.0)
+                }
+                Some(_) => {}
                 None => {
                     let wgt = dir.weight * s.cos;
                     a.irradiance += (s.arriving[side] * wgt).extend(wgt);
