@@ -31,7 +31,7 @@ fn small_params() -> BakeParams {
 
 fn bake(path: &Path, params: &BakeParams) -> LightField {
     let scene = vlf_core::scene::load(path).unwrap_or_else(|e| panic!("{e}"));
-    vlf_core::bake::bake_cpu(&scene, params).unwrap()
+    vlf_core::pipeline::bake_cpu(&scene, params).unwrap()
 }
 
 /// The repository's Cornell box, CPU-reference baked at [`small_params`] (once per test binary).

@@ -147,7 +147,7 @@ fn bake(scene: &str) -> LightField {
         iterations: Iterations::Fixed(2),
         ..BakeParams::paper()
     };
-    vlf_core::bake::bake_cpu(&scene, &params).unwrap()
+    vlf_core::pipeline::bake_cpu(&scene, &params).unwrap()
 }
 
 fn with_encoding(lf: &LightField, enc: RadianceEncoding) -> LightField {

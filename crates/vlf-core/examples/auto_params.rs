@@ -8,7 +8,7 @@ fn main() {
                     vlf_core::bake::Quality::Auto,
                     vlf_core::bake::Quality::High,
                 ] {
-                    let r = vlf_core::bake::auto::choose(&scene, q);
+                    let r = vlf_core::bake::auto::choose(&scene, q, true);
                     println!(
                         "{path} {q:?}: N={} m={} l={} perturb={} {:?}",
                         r.params.resolution,

@@ -14,6 +14,7 @@ pub mod lightfield;
 pub mod par;
 pub(crate) mod parallel;
 pub mod pathtrace;
+pub mod pipeline;
 pub mod psf;
 pub mod radiosity;
 pub mod scene;

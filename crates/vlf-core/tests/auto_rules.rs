@@ -14,7 +14,7 @@ fn shared(rel: &str) -> PathBuf {
 }
 
 #[test]
-fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
+fn auto_preset_without_the_gather_on_the_shared_scenes_matches_the_quality_table() {
     // (scene, rays per side, tile, perturbed copies, whether the sun rule fired)
     let table = [
         ("cornell-box/cornell.gltf", 64, 4, 0, false),
@@ -32,7 +32,8 @@ fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
     ];
     for (rel, n, m, perturb, sun_rule) in table {
         let scene = vlf_core::scene::load(&shared(rel)).unwrap();
-        let r = auto::choose(&scene, Quality::Auto);
+        let r = auto::choose(&scene, Quality::Auto, false);
+        assert_eq!(r.params.final_gather, None);
         let got = (r.params.resolution, r.params.tile, r.params.perturb);
         assert_eq!(got, (n, m, perturb), "{rel}: {:#?}", r.reasons);
         assert_eq!(r.params.directions, 512, "{rel}");
@@ -44,11 +45,47 @@ fn auto_preset_on_the_shared_scenes_matches_the_quality_table() {
 }
 
 #[test]
+fn auto_preset_with_the_gather_on_the_shared_scenes_matches_the_quality_table() {
+    // (scene, rays per side, tile, stored atlas texel in ray spacings)
+    let table = [
+        ("cornell-box/cornell.gltf", 64, 4, 0.5),
+        ("cornell-box-mirror/cornell-mirror.gltf", 64, 4, 0.5),
+        (
+            "cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf",
+            64,
+            1,
+            0.5,
+        ),
+        // Sunlit: half the texel for sharp shadows; no doubling of the rays.
+        ("fog-room/VolumetricFogExample.glb", 64, 4, 0.25),
+        // Sunlit, and capped by the texel budget.
+        ("lava-circuit/DepthOfFieldExample.glb", 256, 4, 0.305),
+        ("sphere-room/room.glb", 64, 1, 0.5),
+    ];
+    for (rel, n, m, texel) in table {
+        let scene = vlf_core::scene::load(&shared(rel)).unwrap();
+        let r = auto::choose(&scene, Quality::Auto, true);
+        let g = r.params.final_gather.expect("gather chosen");
+        let got = (r.params.resolution, r.params.tile, r.params.perturb);
+        assert_eq!(got, (n, m, 0), "{rel}: {:#?}", r.reasons);
+        assert_eq!(r.params.directions, 246, "{rel}");
+        assert!((g.texel_scale - texel).abs() < 1e-3, "{rel}: {g:?}");
+        assert_eq!(
+            (g.light_samples, g.direct_rays, g.indirect_rays),
+            (64, 16, 256)
+        );
+        r.params.validate().unwrap();
+    }
+}
+
+#[test]
 fn presets_grow_monotonically() {
     let scene = vlf_core::scene::load(&shared("cornell-box/cornell.gltf")).unwrap();
-    let d = auto::choose(&scene, Quality::Draft).params;
-    let a = auto::choose(&scene, Quality::Auto).params;
-    let h = auto::choose(&scene, Quality::High).params;
-    assert!(d.directions < a.directions && a.directions < h.directions);
-    assert!(d.resolution <= a.resolution && a.resolution <= h.resolution);
+    for gather in [false, true] {
+        let d = auto::choose(&scene, Quality::Draft, gather).params;
+        let a = auto::choose(&scene, Quality::Auto, gather).params;
+        let h = auto::choose(&scene, Quality::High, gather).params;
+        assert!(d.directions < a.directions && a.directions < h.directions);
+        assert!(d.resolution <= a.resolution && a.resolution <= h.resolution);
+    }
 }

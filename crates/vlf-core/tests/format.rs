@@ -1113,7 +1113,7 @@ fn mirror_tiles_round_trip_and_reject_corruption() {
         iterations: Iterations::Fixed(2),
         ..BakeParams::paper()
     };
-    let lf = vlf_core::bake::bake_cpu(&scene, &params).unwrap();
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();
     let tiles = lf.tiles.as_ref().expect("the mirror box has tiles");
     assert!(
         tiles.radiance.iter().any(|v| v[0] > 0.0),

@@ -163,7 +163,7 @@ pub fn bake_preview(scene: &Path) -> anyhow::Result<LightField> {
         iterations: vlf_core::lightfield::Iterations::Fixed(2),
         ..vlf_core::lightfield::BakeParams::paper()
     };
-    let lf = vlf_core::bake::bake_cpu(&s, &params)
+    let lf = vlf_core::pipeline::bake_cpu(&s, &params)
         .with_context(|| format!("preview bake of {}", scene.display()))?;
     log::info!(
         "preview bake of {} in {:.2} s",

@@ -40,7 +40,7 @@ fn cornell_vlf() -> &'static Path {
             iterations: vlf_core::lightfield::Iterations::Fixed(2),
             ..vlf_core::lightfield::BakeParams::paper()
         };
-        let lf = vlf_core::bake::bake_cpu(&scene, &params).unwrap();
+        let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();
         let path = scratch("vlf").join("cornell.vlf");
         vlf_core::format::write_atomic(&path, &lf).unwrap();
         path

@@ -26,7 +26,7 @@ use super::prep::BakeScene;
 use super::quality::Quality;
 use super::reference::{bin_triangles, build_cell_lists, project};
 use crate::directions::DirectionSet;
-use crate::lightfield::{BakeParams, Iterations};
+use crate::lightfield::{BakeParams, GatherParams, Iterations};
 use crate::psf::{PsfFrame, PsfGrid};
 use crate::scene::Scene;
 
@@ -45,15 +45,31 @@ pub struct AutoReport {
     pub reasons: Vec<String>,
 }
 
-/// Chooses the parameters for `scene` at `quality` (sky and seed are left to the caller).
-pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
+/// Chooses the parameters for `scene` at `quality`, with or without the final gather (sky and
+/// seed are left to the caller).
+pub fn choose(scene: &Scene, quality: Quality, final_gather: bool) -> AutoReport {
     let mut p = quality.params();
+    let mut reasons = Vec::new();
+    if final_gather {
+        // The gather samples direct light itself and reads the propagated field only through
+        // gather rays that each average it over a hemisphere, so the propagation needs fewer
+        // directions (Cornell box with the gather, relMSE: 126 directions 3.5e-4, 246 3.1e-4,
+        // 606 3.0e-4 in 2.4× the time of 246; docs/GATHER.md).
+        p.directions = match quality {
+            Quality::Draft => 126,
+            Quality::Auto => 246,
+            Quality::High => 606,
+        };
+        reasons.push(format!(
+            "directions: {} (the final gather samples direct light and averages the propagated field over each hemisphere)",
+            p.directions
+        ));
+    }
     let (n_min, n_max, perturb_cap, threshold) = match quality {
         Quality::Draft => (32u32, 64u32, 4u32, 1e-2f32),
         Quality::Auto => (64, 256, 16, 1e-3),
         Quality::High => (128, 512, 32, 1e-4),
     };
-    let mut reasons = Vec::new();
     let l = DirectionSet::at_least(p.directions).map_or(p.directions as usize, |s| s.len());
     let delta = (4.0 * std::f32::consts::PI / (2.0 * l as f32)).sqrt();
 
@@ -108,7 +124,12 @@ pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
     // not blurred by the direction set, and in a sunlit scene they carry most of the image's
     // contrast (fog-room: relMSE 0.26 at N = 64 and 0.11 at 128 whatever the direction count,
     // docs/ACCURACY.md). One more doubling for them.
-    if !scene.suns.is_empty() && n < n_max {
+    if !scene.suns.is_empty() && final_gather {
+        reasons.push(
+            "rays: not doubled for the sun: the final gather's shadow rays resolve its shadows"
+                .into(),
+        );
+    } else if !scene.suns.is_empty() && n < n_max {
         n *= 2;
         reasons.push(format!(
             "rays: doubled to {n} for the sun's sharp shadows (exact direction, limited by the ray grid only)"
@@ -159,7 +180,9 @@ pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
         0.0
     };
     p.perturb = 0;
-    if omega_e > 0.0 && omega_e < 4.0 * omega_dir {
+    if final_gather {
+        reasons.push("perturbation: none (the final gather samples emitters directly)".into());
+    } else if omega_e > 0.0 && omega_e < 4.0 * omega_dir {
         p.perturb = ((4.0 * omega_dir / omega_e).ceil() as u32).clamp(1, perturb_cap);
         reasons.push(format!(
             "perturbation: the largest emitter subtends {omega_e:.4} sr < 4 × {omega_dir:.4} sr per direction → {} jittered copies per direction",
@@ -174,6 +197,9 @@ pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
     reasons.push(format!(
         "stopping: unshot power below {threshold:e} of the emitted power"
     ));
+    if final_gather {
+        p.final_gather = Some(choose_gather(scene, quality, n, &mut reasons));
+    }
     AutoReport {
         quality: format!("{quality:?}").to_lowercase(),
         visibility_distance: d,
@@ -183,4 +209,55 @@ pub fn choose(scene: &Scene, quality: Quality) -> AutoReport {
         params: p,
         reasons,
     }
+}
+
+/// Most texels of the gathered atlas per preset (both sides of every face): past this the
+/// stored atlas gets coarser rather than the bake slower and the file larger.
+pub fn gather_texel_budget(quality: Quality) -> f64 {
+    match quality {
+        Quality::Draft => 250e3,
+        Quality::Auto => 1e6,
+        Quality::High => 4e6,
+    }
+}
+
+/// The final gather's settings for `scene` propagated with `n` rays per side.
+fn choose_gather(
+    scene: &Scene,
+    quality: Quality,
+    n: u32,
+    reasons: &mut Vec<String>,
+) -> GatherParams {
+    let mut g = quality.gather();
+    if !scene.suns.is_empty() {
+        // Sun shadows have no penumbra: their edges are as sharp as the stored atlas.
+        g.texel_scale *= 0.5;
+        reasons.push(format!(
+            "gather: texels of {} ray spacings for the sun's sharp shadows (half the preset's)",
+            g.texel_scale
+        ));
+    }
+    let cell = 2.0 / n as f64;
+    let s2 = f64::from(scene.to_vlf.scale).powi(2);
+    let area: f64 = scene
+        .faces
+        .iter()
+        .map(|f| 2.0 * f64::from(f.area) * s2)
+        .sum();
+    let texels = area / (f64::from(g.texel_scale) * cell).powi(2);
+    let budget = gather_texel_budget(quality);
+    if texels > budget {
+        let k = (texels / budget).sqrt() as f32;
+        g.texel_scale *= k;
+        g.indirect_texel_scale = g.indirect_texel_scale.max(g.texel_scale);
+        reasons.push(format!(
+            "gather: texels coarsened {k:.2}× to {:.3} ray spacings: {texels:.0} texels would exceed the preset's {budget:.0}",
+            g.texel_scale
+        ));
+    }
+    reasons.push(format!(
+        "gather: stored atlas {} and indirect grid {} ray spacings, {} light samples and {} cosine rays per texel, {} gather rays per indirect texel",
+        g.texel_scale, g.indirect_texel_scale, g.light_samples, g.direct_rays, g.indirect_rays
+    ));
+    g
 }

@@ -138,22 +138,6 @@ fn encode_radiance(
     })
 }
 
-/// Bakes on the CPU with the reference propagator.
-pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeError> {
-    let prep = BakeScene::new(scene, params)?;
-    let directions = DirectionSet::at_least(params.directions)?;
-    let out = reference::propagate(&prep, &directions, params);
-    // No timings in the stats: equal inputs must give bit-identical files.
-    let mut stats = BakeStats {
-        iterations: out.iterations,
-        device: "cpu".into(),
-        adapter: "CPU reference".into(),
-        ..Default::default()
-    };
-    out.energy.copy_into(&mut stats);
-    try_assemble(scene, &prep, params, directions, out, stats)
-}
-
 /// Fills every uncovered texel (area 0) of each chart side with the mean of its covered
 /// 8-neighbours, repeated outward (two rings are enough for bilinear filtering).
 pub fn dilate(prep: &BakeScene, radiance: &mut [[f32; 4]]) {

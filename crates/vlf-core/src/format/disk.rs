@@ -318,6 +318,8 @@ impl From<&FileParams> for BakeParams {
             sky: p.sky.into(),
             perturb: p.perturb,
             seed: p.seed,
+            // Not stored yet (file version 2 will): a read file shows no gather.
+            final_gather: None,
         }
     }
 }

@@ -19,36 +19,18 @@ pub mod field;
 pub mod points;
 
 use glam::{Vec2, Vec3, Vec4};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::bake::prep::BakeScene;
 use crate::bake::reference::texel_faces;
 use crate::directions::DirectionSet;
-use crate::lightfield::{ParamsError, TileIndex};
+use crate::lightfield::{GatherParams, ParamsError, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Hit, PreparedScene, Ray};
 use crate::scene::Scene;
 use field::{Tiles, chart_bilinear};
 use points::{Charts, Openness, TexelPoints};
-
-/// Settings of the final gather.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GatherParams {
-    /// Texel edge of the gathered (stored) atlas, VLF units: the resolution of direct light.
-    pub texel_size: f32,
-    /// Texel edge of the indirect-light grid, VLF units (at least `texel_size`).
-    pub indirect_texel_size: f32,
-    /// Light samples per texel of the stored atlas (a point of the texel paired with a point of
-    /// an emitter, plus a shadow ray per sun).
-    pub light_samples: u32,
-    /// Cosine-distributed rays per texel of the stored atlas for the direct part they see: the
-    /// sky, and emitters (weighted against the light samples by multiple importance sampling,
-    /// which keeps emitters next to the texel from being undersampled).
-    pub direct_rays: u32,
-    /// Gather rays per texel of the indirect grid.
-    pub indirect_rays: u32,
-}
 
 /// The propagated light field the gather reads.
 pub struct Converged<'a> {
@@ -61,11 +43,13 @@ pub struct Converged<'a> {
     pub directions: &'a DirectionSet,
     /// Sky radiance.
     pub sky: Vec3,
+    /// Ray spacing of the propagation (VLF units): the unit of the gather's texel scales.
+    pub ray_spacing: f32,
 }
 
 /// What the gather produced.
 pub struct Gathered {
-    /// The gathered atlas (charts of edge [`GatherParams::texel_size`]).
+    /// The gathered atlas (charts of edge [`GatherParams::texel_scale`] × the ray spacing).
     pub atlas: BakeScene,
     /// Irradiance per texel of `atlas` (rgb, a = 0), direct + indirect; texels that are off
     /// their face or enclosed are filled from open neighbours.
@@ -334,12 +318,14 @@ pub fn final_gather(
     let xf = scene.to_vlf;
 
     // Indirect light on the coarser grid.
-    let coarse = BakeScene::with_texel_size(scene, gp.indirect_texel_size)?;
+    let texel_size = gp.texel_scale * field.ray_spacing;
+    let indirect_texel_size = gp.indirect_texel_scale * field.ray_spacing;
+    let coarse = BakeScene::with_texel_size(scene, indirect_texel_size)?;
     let coarse_faces = texel_faces(&coarse);
     let coarse_charts = Charts::new(scene, &coarse);
     let open_coarse = Openness {
         bvh: &g.ps.bvh,
-        r_close: gp.indirect_texel_size / xf.scale,
+        r_close: indirect_texel_size / xf.scale,
     };
     let coarse_pts = TexelPoints {
         atlas: &coarse,
@@ -359,12 +345,12 @@ pub fn final_gather(
     crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
 
     // Direct light on the stored atlas, plus the indirect grid read at each texel.
-    let atlas = BakeScene::with_texel_size(scene, gp.texel_size)?;
+    let atlas = BakeScene::with_texel_size(scene, texel_size)?;
     let faces = texel_faces(&atlas);
     let charts = Charts::new(scene, &atlas);
     let open = Openness {
         bvh: &g.ps.bvh,
-        r_close: gp.texel_size / xf.scale,
+        r_close: texel_size / xf.scale,
     };
     let pts = TexelPoints {
         atlas: &atlas,

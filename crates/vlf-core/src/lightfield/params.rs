@@ -32,6 +32,28 @@ pub struct BakeParams {
     pub perturb: u32,
     /// Seed of every pseudo-random choice (perturbations); bakes are deterministic.
     pub seed: u64,
+    /// The final gather run once propagation has converged (`None`: the light field alone).
+    #[serde(default)]
+    pub final_gather: Option<GatherParams>,
+}
+
+/// Settings of the final gather (`crate::gather`): texel sizes relative to the ray spacing, like
+/// [`BakeParams::texel_scale`], and ray counts per texel.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GatherParams {
+    /// Texel edge of the gathered (stored) atlas: the resolution of direct light.
+    pub texel_scale: f32,
+    /// Texel edge of the indirect-light grid (at least `texel_scale`).
+    pub indirect_texel_scale: f32,
+    /// Light samples per texel of the stored atlas (a point of the texel paired with a point of
+    /// an emitter; one shadow ray per sun as well).
+    pub light_samples: u32,
+    /// Cosine-distributed rays per texel of the stored atlas for the direct light they see:
+    /// the sky, and emitters (weighted against the light samples by multiple importance
+    /// sampling, which keeps emitters next to the texel from being undersampled).
+    pub direct_rays: u32,
+    /// Gather rays per texel of the indirect grid.
+    pub indirect_rays: u32,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -61,6 +83,7 @@ impl BakeParams {
             sky: Vec3::ZERO,
             perturb: 0,
             seed: DEFAULT_SEED,
+            final_gather: None,
         }
     }
 
@@ -115,6 +138,25 @@ impl BakeParams {
             self.perturb.to_string(),
             "0..=256",
         )?;
+        if let Some(g) = &self.final_gather {
+            let scale = |name, v: f32| {
+                range(
+                    name,
+                    v.is_finite() && (0.01..=64.0).contains(&v),
+                    v.to_string(),
+                    "0.01..=64",
+                )
+            };
+            scale("gather texel_scale", g.texel_scale)?;
+            scale("gather indirect_texel_scale", g.indirect_texel_scale)?;
+            for (name, v) in [
+                ("gather light_samples", g.light_samples),
+                ("gather direct_rays", g.direct_rays),
+                ("gather indirect_rays", g.indirect_rays),
+            ] {
+                range(name, v <= 1 << 16, v.to_string(), "0..=65536")?;
+            }
+        }
         match self.iterations {
             Iterations::Fixed(n) => range("iterations", n <= 10_000, n.to_string(), "0..=10000"),
             Iterations::Converge { threshold, max } => {

@@ -1,0 +1,85 @@
+//! A whole bake on the host, above `bake` and `gather`: the CPU propagation (or one handed in by
+//! the GPU propagator), the final gather when the parameters ask for it, and the assembled
+//! light field.
+
+use glam::Vec4;
+
+use crate::bake::reference::{self, Propagated};
+use crate::bake::{BakeError, BakeScene, try_assemble};
+use crate::directions::DirectionSet;
+use crate::gather::{Converged, GatherStats, final_gather};
+use crate::lightfield::{BakeParams, BakeStats, LightField};
+use crate::scene::Scene;
+
+/// A finished bake.
+pub struct Finished {
+    pub light_field: LightField,
+    /// The gather's bookkeeping, when it ran.
+    pub gather: Option<GatherStats>,
+}
+
+/// Finishes a propagation of `prep`: runs the final gather (`params.final_gather`, on `threads`
+/// workers, 0 = all cores) and assembles the light field, failing on a non-finite value.
+pub fn finish(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    directions: DirectionSet,
+    propagated: Propagated,
+    stats: BakeStats,
+    threads: usize,
+) -> Result<Finished, BakeError> {
+    let Some(gp) = params.final_gather else {
+        let light_field = try_assemble(scene, prep, params, directions, propagated, stats)?;
+        return Ok(Finished {
+            light_field,
+            gather: None,
+        });
+    };
+    let field = Converged {
+        prep,
+        irradiance: &propagated.irradiance,
+        tiles: propagated.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
+        directions: &directions,
+        sky: params.sky,
+        ray_spacing: 2.0 / params.resolution as f32,
+    };
+    let g = final_gather(scene, &field, &gp, threads)?;
+    // The stored atlas holds outgoing radiance until the file keeps irradiance: L_e + ρ·E/π.
+    let radiance = g
+        .irradiance
+        .iter()
+        .zip(&g.atlas.albedo)
+        .zip(&g.atlas.emission)
+        .map(|((e, rho), le)| {
+            let (e, rho, le) = (Vec4::from(*e), Vec4::from(*rho), Vec4::from(*le));
+            (le + rho * e * std::f32::consts::FRAC_1_PI).into()
+        })
+        .collect();
+    let gathered = Propagated {
+        radiance,
+        irradiance: g.irradiance,
+        ..propagated
+    };
+    let light_field = try_assemble(scene, &g.atlas, params, directions, gathered, stats)?;
+    Ok(Finished {
+        light_field,
+        gather: Some(g.stats),
+    })
+}
+
+/// Bakes on the CPU: the reference propagator, then [`finish`] on all cores.
+pub fn bake_cpu(scene: &Scene, params: &BakeParams) -> Result<LightField, BakeError> {
+    let prep = BakeScene::new(scene, params)?;
+    let directions = DirectionSet::at_least(params.directions)?;
+    let out = reference::propagate(&prep, &directions, params);
+    // No timings in the stats: equal inputs must give bit-identical files.
+    let mut stats = BakeStats {
+        iterations: out.iterations,
+        device: "cpu".into(),
+        adapter: "CPU reference".into(),
+        ..Default::default()
+    };
+    out.energy.copy_into(&mut stats);
+    Ok(finish(scene, &prep, params, directions, out, stats, 0)?.light_field)
+}
