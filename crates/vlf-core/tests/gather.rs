@@ -5,8 +5,8 @@
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
-use vlf_core::gather::{Converged, GatherParams, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, Iterations};
+use vlf_core::gather::{Converged, Gathered, final_gather};
+use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
 
 /// Propagates `scene` at small settings and gathers with `gp`.
@@ -41,6 +41,8 @@ fn bake_and_gather_with_field(
         tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
         directions: &set,
         sky,
+        // Texel sizes in these tests are in VLF units.
+        ray_spacing: 1.0,
     };
     let g = final_gather(scene, &field, gp, threads).unwrap();
     let stats = g.stats.clone();
@@ -56,8 +58,8 @@ fn bake_and_gather_with_field(
 
 fn gp(texel: f32, indirect: f32, light: u32, rays: u32) -> GatherParams {
     GatherParams {
-        texel_size: texel,
-        indirect_texel_size: indirect,
+        texel_scale: texel,
+        indirect_texel_scale: indirect,
         light_samples: light,
         direct_rays: light.div_ceil(4),
         indirect_rays: rays,
@@ -332,9 +334,10 @@ fn texels_under_a_slab_hung_just_below_the_ceiling_are_enclosed() {
         v.iter().sum::<f32>() / v.len() as f32
     };
     let halo = |g: &Gathered| ring(g, 0) / ring(g, 1);
-    // Measured: gathered 1.007 (the ceiling brightens smoothly towards the lamp, which lights
-    // the floor under it); the light field alone, whose straddling texels average the gap in,
-    // 9.5.
+    // Measured: gathered 1.007; the light field alone, whose straddling texels average the gap
+    // in, 9.5. (Path-traced irradiance on the ceiling is flat here; the gathered ceiling is up
+    // to 26 % too bright 1.5 texels from the outline, where its gather rays read the slab's
+    // sides, which the propagation's halo lights: see the stability suite.)
     eprintln!(
         "halo: gathered {:.3}, light field alone {:.3}",
         halo(&g),
