@@ -311,6 +311,24 @@ fn series_for(rows: &[Row], axis: Axis, metric: &str) -> Vec<Series> {
             marker: Marker::Diamond,
         },
     ];
+    // The light field alone (`--final-gather off`): its own series.
+    let lf = pick("vlf-no-gather");
+    if !lf.is_empty() {
+        v.push(Series {
+            name: "VLF without final gather, best for the cost".into(),
+            color: "#7f7f7f",
+            points: pareto(&lf),
+            line: true,
+            marker: Marker::Square,
+        });
+        v.push(Series {
+            name: "VLF without final gather (grid)".into(),
+            color: "#7f7f7f",
+            points: lf,
+            line: false,
+            marker: Marker::Square,
+        });
+    }
     let rad = pick("radiosity_gs");
     if !rad.is_empty() {
         v.push(Series {

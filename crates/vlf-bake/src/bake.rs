@@ -8,7 +8,7 @@ use serde::Serialize;
 use vlf_core::bake::{self, Quality};
 use vlf_core::lightfield::{BakeParams, BakeStats, Iterations};
 
-use crate::cli::{BakeArgs, DeviceArg, IterationsArg, QualityArg};
+use crate::cli::{BakeArgs, DeviceArg, IterationsArg, OnOff, QualityArg};
 use crate::memory::{self, Budget};
 use crate::{Compute, open_device};
 
@@ -20,9 +20,16 @@ fn quality(a: &BakeArgs) -> Quality {
     }
 }
 
+fn final_gather(a: &BakeArgs) -> bool {
+    a.final_gather == OnOff::On
+}
+
 /// Parameters from the preset and the explicit options, before looking at a scene.
 pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = quality(a).params();
+    if final_gather(a) {
+        p.final_gather = Some(quality(a).gather());
+    }
     apply_explicit(a, &mut p);
     p.validate().context("bake parameters")?;
     Ok(p)
@@ -35,7 +42,7 @@ pub fn resolve_params(
     a: &BakeArgs,
     scene: &vlf_core::scene::Scene,
 ) -> anyhow::Result<(BakeParams, Vec<String>)> {
-    let report = bake::auto::choose(scene, quality(a));
+    let report = bake::auto::choose(scene, quality(a), final_gather(a));
     let mut p = report.params;
     let mut reasons = report.reasons;
     apply_explicit(a, &mut p);
@@ -91,6 +98,15 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
     if let Some(s) = a.sky {
         p.sky = glam::Vec3::from(s.0);
     }
+    if let Some(g) = &mut p.final_gather {
+        if let Some(v) = a.gather_texel_scale {
+            g.texel_scale = v;
+            g.indirect_texel_scale = g.indirect_texel_scale.max(v);
+        }
+        if let Some(v) = a.gather_rays {
+            g.indirect_rays = v;
+        }
+    }
 }
 
 /// What `--json` prints.
@@ -107,6 +123,8 @@ pub struct BakeReport {
     pub phases_s: Vec<(String, f64)>,
     pub total_s: f64,
     pub energy: EnergyReport,
+    /// The final gather's bookkeeping (absent with `--final-gather off`).
+    pub gather: Option<GatherReport>,
     pub memory: MemoryReport,
     pub output_bytes: u64,
     pub warnings: Vec<String>,
@@ -125,6 +143,15 @@ pub struct EnergyReport {
     pub unshot_fraction: f64,
     /// (emitted + injected − absorbed − escaped − unshot) / (emitted + injected).
     pub imbalance: f64,
+}
+
+#[derive(Serialize)]
+pub struct GatherReport {
+    #[serde(flatten)]
+    pub stats: vlf_core::gather::GatherStats,
+    /// (direct + indirect) / propagated − 1: how far the gather moved the received power
+    /// (Σ irradiance × area over every texel side) from what the propagation alone had.
+    pub relative_difference: f64,
 }
 
 #[derive(Serialize)]
@@ -224,9 +251,13 @@ pub fn bake_scene(
     let t = Instant::now();
     let iterations = out.iterations;
     let energy = out.energy.clone();
-    // A non-finite radiance is a bug or a degenerate input: refuse it rather than write it.
-    let lf = bake::try_assemble(&scene, &prep, params, set.clone(), out, stats)
-        .with_context(|| format!("assembling the light field of {}", scene_path.display()))?;
+    // The final gather (when asked for), then the light field. A non-finite radiance is a bug
+    // or a degenerate input: refuse it rather than write it.
+    let finished = vlf_core::pipeline::finish(&scene, &prep, params, set.clone(), out, stats, 0)
+        .with_context(|| format!("finishing the light field of {}", scene_path.display()))?;
+    let t_gather = t.elapsed().as_secs_f64();
+    let lf = finished.light_field;
+    let t = Instant::now();
     let bytes = vlf_core::format::write_atomic(output, &lf)?;
     let t_write = t.elapsed().as_secs_f64();
     let phases: Vec<(String, f64)> = [
@@ -234,6 +265,14 @@ pub fn bake_scene(
         ("plan", t_plan),
         ("prepare", t_prep),
         ("propagate", t_prop),
+        (
+            if finished.gather.is_some() {
+                "gather"
+            } else {
+                "assemble"
+            },
+            t_gather,
+        ),
         ("write", t_write),
     ]
     .into_iter()
@@ -263,6 +302,10 @@ pub fn bake_scene(
             unshot_fraction: if src > 0.0 { energy.unshot / src } else { 0.0 },
             imbalance: energy.relative_imbalance(),
         },
+        gather: finished.gather.map(|stats| GatherReport {
+            relative_difference: stats.relative_difference(),
+            stats,
+        }),
         memory: MemoryReport {
             propagation_bytes: (texels + tile_values) * 3 * 16 + texels * 32,
             render_bytes: (lf.radiance.byte_len()

@@ -43,10 +43,19 @@ pub enum DeviceArg {
 pub enum QualityArg {
     /// Fast preview: 126 directions, 32–64 rays per side, stop at 1e-2.
     Draft,
-    /// The default: 606 directions, 64–256 rays per side from the scene, stop at 1e-3.
+    /// The default: 246 directions with the final gather (606 without), 64–256 rays per side
+    /// from the scene, stop at 1e-3.
     Auto,
-    /// 2,206 directions, 128–512 rays per side from the scene, stop at 1e-4.
+    /// 606 directions with the final gather (2,206 without), 128–512 rays per side from the
+    /// scene, stop at 1e-4.
     High,
+}
+
+/// `--final-gather on|off`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
 }
 
 /// `--iterations K` or `--iterations auto` (until the unshot power is below the threshold).
@@ -116,9 +125,22 @@ pub struct BakeArgs {
     /// Perturbed (virtual) transport directions per fixed direction.
     #[arg(long)]
     pub perturb: Option<u32>,
-    /// Texel edge relative to the ray spacing.
+    /// Texel edge of the propagation's atlas, relative to the ray spacing.
     #[arg(long)]
     pub texel_scale: Option<f32>,
+    /// Once propagation has converged, compute every texel's irradiance again by backward ray
+    /// tracing (direct light sampled explicitly, indirect light gathered from the light field)
+    /// into a finer atlas (docs/GATHER.md). `off` keeps the light field alone.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub final_gather: OnOff,
+    /// Texel edge of the gathered atlas, relative to the ray spacing (default from --quality
+    /// and the scene).
+    #[arg(long, value_name = "S")]
+    pub gather_texel_scale: Option<f32>,
+    /// Gather rays per texel of the final gather's indirect grid (default from --quality:
+    /// draft 64, auto 256, high 1024).
+    #[arg(long, value_name = "R")]
+    pub gather_rays: Option<u32>,
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,

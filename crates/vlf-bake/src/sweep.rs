@@ -28,7 +28,9 @@ use vlf_gpu::render::{CameraView, Renderer};
 
 use crate::bake::{bake_scene, resolve_params};
 use crate::batch::write_bytes_atomic;
-use crate::cli::{BakeArgs, DeviceArg, GridArg, IterationsArg, Point, QualityArg, Rgb, SweepArgs};
+use crate::cli::{
+    BakeArgs, DeviceArg, GridArg, IterationsArg, OnOff, Point, QualityArg, Rgb, SweepArgs,
+};
 use crate::memory::Budget;
 use crate::{Compute, open_device};
 
@@ -109,6 +111,7 @@ struct GridPoint {
     tile: Option<u32>,
     iterations: Option<IterationsArg>,
     perturb: Option<u32>,
+    final_gather: OnOff,
 }
 
 impl GridPoint {
@@ -121,6 +124,7 @@ impl GridPoint {
             tile: None,
             iterations: None,
             perturb: None,
+            final_gather: OnOff::On,
         }
     }
 
@@ -134,7 +138,15 @@ impl GridPoint {
             iterations: None,
             // Grid points isolate directions × resolution: no perturbation unless asked.
             perturb: Some(0),
+            final_gather: OnOff::On,
         }
+    }
+
+    /// The same bake without the final gather (the light field alone), labelled as such.
+    fn without_gather(mut self) -> Self {
+        self.label = format!("{} no-gather", self.label);
+        self.final_gather = OnOff::Off;
+        self
     }
 
     fn args(&self, sky: Option<Rgb>) -> BakeArgs {
@@ -147,6 +159,9 @@ impl GridPoint {
             threshold: None,
             perturb: self.perturb,
             texel_scale: None,
+            final_gather: self.final_gather,
+            gather_texel_scale: None,
+            gather_rays: None,
             sky,
             sky_if_unlit: None,
             max_memory: None,
@@ -156,39 +171,49 @@ impl GridPoint {
 
 /// The bakes of a grid, cheapest first (an interrupted sweep keeps the cheap points).
 fn plan(grid: GridArg, high: bool) -> Vec<GridPoint> {
+    // With the final gather (the default), then the light field alone as its own series.
     let mut v = vec![
         GridPoint::preset(QualityArg::Draft, "draft"),
         GridPoint::grid(126, 32),
         GridPoint::grid(126, 64),
-        GridPoint::grid(606, 32),
-        GridPoint::grid(606, 64),
+        GridPoint::grid(246, 64),
         GridPoint::preset(QualityArg::Auto, "auto"),
+        GridPoint::preset(QualityArg::Draft, "draft").without_gather(),
+        GridPoint::grid(126, 32).without_gather(),
+        GridPoint::grid(126, 64).without_gather(),
+        GridPoint::grid(606, 32).without_gather(),
+        GridPoint::grid(606, 64).without_gather(),
+        GridPoint::preset(QualityArg::Auto, "auto").without_gather(),
     ];
     if grid == GridArg::Full {
-        for (l, n) in [(246, 32), (246, 64), (126, 128), (1126, 64), (606, 128)] {
+        for (l, n) in [(246, 32), (606, 64), (126, 128)] {
             v.push(GridPoint::grid(l, n));
         }
+        for (l, n) in [(246, 32), (246, 64), (126, 128), (1126, 64), (606, 128)] {
+            v.push(GridPoint::grid(l, n).without_gather());
+        }
         for k in [1, 2, 3, 5] {
-            let mut p = GridPoint::grid(606, 64);
-            p.label = format!("l=606 N=64 iterations={k}");
+            let mut p = GridPoint::grid(606, 64).without_gather();
+            p.label = format!("l=606 N=64 iterations={k} no-gather");
             p.iterations = Some(IterationsArg::Fixed(k));
             v.push(p);
         }
         for m in [4, 16] {
-            let mut p = GridPoint::grid(606, 64);
-            p.label = format!("l=606 N=64 tile={m}");
+            let mut p = GridPoint::grid(606, 64).without_gather();
+            p.label = format!("l=606 N=64 tile={m} no-gather");
             p.tile = Some(m);
             v.push(p);
         }
         for k in [4, 16] {
-            let mut p = GridPoint::grid(126, 64);
-            p.label = format!("l=126 N=64 perturb={k}");
+            let mut p = GridPoint::grid(126, 64).without_gather();
+            p.label = format!("l=126 N=64 perturb={k} no-gather");
             p.perturb = Some(k);
             v.push(p);
         }
     }
     if high {
         v.push(GridPoint::preset(QualityArg::High, "high"));
+        v.push(GridPoint::preset(QualityArg::High, "high").without_gather());
     }
     v
 }
@@ -423,7 +448,11 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
         let _ = std::fs::remove_file(&out);
         let pr = &report.params;
         let row = Row {
-            method: "vlf",
+            // The light field alone is its own series in the charts.
+            method: match p.final_gather {
+                OnOff::On => "vlf",
+                OnOff::Off => "vlf-no-gather",
+            },
             label: p.label.clone(),
             preset: p
                 .preset
