@@ -376,7 +376,7 @@ fn describe_reads_the_header_only() {
     let text = info.to_string();
     for needle in [
         "d.vlf",
-        "version 1",
+        "version 2",
         "rgb16f",
         "radiance",
         "6 triangles, 3 faces",
@@ -427,12 +427,22 @@ fn rejects_bad_magic() {
 #[test]
 fn rejects_unsupported_versions() {
     let f = bytes_of(&small(), RadianceEncoding::Rgb9e5);
-    for (v, why) in [(2u32, "; the file was written by a newer vlf"), (0, "")] {
+    for (v, why) in [
+        (3u32, "; the file was written by a newer vlf"),
+        (
+            1,
+            "; the file was written by an older vlf: bake the scene again",
+        ),
+        (
+            0,
+            "; the file was written by an older vlf: bake the scene again",
+        ),
+    ] {
         let mut g = f.clone();
         g[8..12].copy_from_slice(&v.to_le_bytes());
         let msg = read_err(&g);
         let want =
-            format!("unsupported .vlf format version {v} (this build reads version 1 only{why}): ");
+            format!("unsupported .vlf format version {v} (this build reads version 2 only{why}): ");
         assert!(msg.starts_with(&want), "{msg}");
     }
 }
@@ -883,14 +893,14 @@ fn hex(b: &[u8]) -> String {
 fn golden_bytes_of_a_tiny_file() {
     let f = bytes_of(&tiny(), RadianceEncoding::Rgb9e5);
     let p = Preamble::from_bytes(f[..32].try_into().unwrap());
-    // Preamble: magic, version 1, header length, file length, header checksum.
+    // Preamble: magic, version 2, header length, file length, header checksum.
     assert_eq!(&f[..8], b"VLFIELD\0");
     assert_eq!(hex(&f[8..24]), GOLDEN_PREAMBLE_8_24);
     assert_eq!(hex(&f[24..32]), GOLDEN_HEADER_CHECKSUM);
     // Header start (bincode standard: varints, little-endian floats): params.directions = 21,
     // resolution = 64, tile = 8, texel_scale = 1.0f32, iterations = Fixed(3), sky = 0, 0, 0,
-    // perturb = 0, seed = 0x5eed0001 (varint 0xfc + u32), direction scheme 1, frequency 2,
-    // count 21, transform centre (0.25, -1, 3.5), scale 0.125.
+    // perturb = 0, seed = 0x5eed0001 (varint 0xfc + u32), no final gather (0), direction
+    // scheme 1, frequency 2, count 21, transform centre (0.25, -1, 3.5), scale 0.125.
     assert_eq!(hex(&f[32..80]), GOLDEN_HEADER_32_80);
     // The radiance texel (1, 0.5, 0.25) in RGB9E5 is 256 | 128 << 9 | 64 << 18 | 16 << 27,
     // the last section, at the end of the file.
@@ -900,10 +910,10 @@ fn golden_bytes_of_a_tiny_file() {
     assert_eq!(n, GOLDEN_LEN);
 }
 
-const GOLDEN_LEN: usize = 424;
-const GOLDEN_PREAMBLE_8_24: &str = "01 00 00 00 d0 00 00 00 a8 01 00 00 00 00 00 00";
-const GOLDEN_HEADER_CHECKSUM: &str = "8e 35 d4 b8 04 e7 aa 47";
-const GOLDEN_HEADER_32_80: &str = "15 40 08 00 00 80 3f 00 03 00 00 00 00 00 00 00 00 00 00 00 00 00 fc 01 00 ed 5e 01 02 15 00 00 80 3e 00 00 80 bf 00 00 60 40 00 00 00 3e 01 74";
+const GOLDEN_LEN: usize = 440;
+const GOLDEN_PREAMBLE_8_24: &str = "02 00 00 00 d3 00 00 00 b8 01 00 00 00 00 00 00";
+const GOLDEN_HEADER_CHECKSUM: &str = "c5 a5 0b 89 8b 4b 33 1a";
+const GOLDEN_HEADER_32_80: &str = "15 40 08 00 00 80 3f 00 03 00 00 00 00 00 00 00 00 00 00 00 00 00 fc 01 00 ed 5e 00 01 02 15 00 00 80 3e 00 00 80 bf 00 00 60 40 00 00 00 3e 01";
 
 // ----- encoding measurements ----------------------------------------------------------------
 

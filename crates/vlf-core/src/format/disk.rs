@@ -10,15 +10,15 @@ use bytemuck::{Pod, Zeroable};
 use serde::{Deserialize, Serialize};
 
 use crate::directions::{DirectionScheme, DirectionSet, DirectionSetDesc};
-use crate::lightfield::{BakeFace, BakeParams, BakeStats, BakeTriangle, Iterations};
+use crate::lightfield::{BakeFace, BakeParams, BakeStats, BakeTriangle, GatherParams, Iterations};
 use crate::scene::{Camera, SceneSummary, Similarity};
 
 /// The first 8 bytes of every `.vlf` file.
 pub const MAGIC: [u8; 8] = *b"VLFIELD\0";
 /// The version this build writes.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// The versions this build reads.
-pub const SUPPORTED_VERSIONS: std::ops::RangeInclusive<u32> = 1..=1;
+pub const SUPPORTED_VERSIONS: std::ops::RangeInclusive<u32> = 2..=2;
 /// Alignment of every section's offset (bytes).
 pub const SECTION_ALIGN: u64 = 16;
 /// Upper bound of [`Preamble::header_len`]: a corrupt length cannot make a reader allocate
@@ -273,6 +273,18 @@ pub struct FileParams {
     pub sky: [f32; 3],
     pub perturb: u32,
     pub seed: u64,
+    /// The final gather's settings (`None`: the light field alone). Since version 2.
+    pub final_gather: Option<FileGather>,
+}
+
+/// [`GatherParams`] on disk.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FileGather {
+    pub texel_scale: f32,
+    pub indirect_texel_scale: f32,
+    pub light_samples: u32,
+    pub direct_rays: u32,
+    pub indirect_rays: u32,
 }
 
 /// [`Iterations`] on disk (variant index 0 = fixed, 1 = converge).
@@ -298,6 +310,13 @@ impl From<&BakeParams> for FileParams {
             sky: p.sky.into(),
             perturb: p.perturb,
             seed: p.seed,
+            final_gather: p.final_gather.map(|g| FileGather {
+                texel_scale: g.texel_scale,
+                indirect_texel_scale: g.indirect_texel_scale,
+                light_samples: g.light_samples,
+                direct_rays: g.direct_rays,
+                indirect_rays: g.indirect_rays,
+            }),
         }
     }
 }
@@ -318,8 +337,13 @@ impl From<&FileParams> for BakeParams {
             sky: p.sky.into(),
             perturb: p.perturb,
             seed: p.seed,
-            // Not stored yet (file version 2 will): a read file shows no gather.
-            final_gather: None,
+            final_gather: p.final_gather.map(|g| GatherParams {
+                texel_scale: g.texel_scale,
+                indirect_texel_scale: g.indirect_texel_scale,
+                light_samples: g.light_samples,
+                direct_rays: g.direct_rays,
+                indirect_rays: g.indirect_rays,
+            }),
         }
     }
 }

@@ -79,7 +79,7 @@ pub(super) fn read_head(src: &dyn Source, path: &Path) -> Result<Head, FormatErr
         let supported = if preamble.version > hi {
             format!("{supported}; the file was written by a newer vlf")
         } else {
-            supported
+            format!("{supported}; the file was written by an older vlf: bake the scene again")
         };
         return Err(FormatError::UnsupportedVersion {
             found: preamble.version,
