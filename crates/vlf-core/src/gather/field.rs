@@ -5,9 +5,125 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use crate::bake::BakeScene;
 use crate::directions::DirectionSet;
 use crate::lightfield::{BakeFace, TileIndex};
+use crate::pathtrace::{Hit, PreparedScene};
 use crate::psf::PsfFrame;
+use crate::scene::Scene;
+
+/// A converged light field as seen from a traced ray: an atlas of irradiance per texel side and,
+/// for non-diffuse faces, their directional tiles. Radiance leaving a surface point towards a
+/// ray's origin is the emission (front side) + the diffuse albedo (texture at the point's own
+/// uv) / π × the atlas irradiance (bilinear) + the face's specular tiles in that direction.
+pub struct Field<'a> {
+    pub scene: &'a Scene,
+    /// The atlas' charts.
+    pub atlas: &'a BakeScene,
+    /// Irradiance per texel of `atlas`, dilated so bilinear reads at polygon borders see
+    /// covered texels.
+    pub irradiance: Vec<[f32; 4]>,
+    pub tiles: Option<Tiles<'a>>,
+}
+
+/// Where a ray landed: the hit point in VLF and world coordinates, its face, texture coordinates
+/// and whether the ray arrived at the face's front.
+pub struct SurfaceHit {
+    pub face: u32,
+    pub material: u32,
+    pub world: Vec3,
+    pub vlf: Vec3,
+    pub uv: Vec2,
+    /// The side the ray arrived at (0 = front).
+    pub side: u32,
+}
+
+impl<'a> Field<'a> {
+    /// A field over `atlas` with undilated `irradiance` (dilated here).
+    pub fn new(
+        scene: &'a Scene,
+        atlas: &'a BakeScene,
+        irradiance: &[[f32; 4]],
+        tiles: Option<Tiles<'a>>,
+    ) -> Self {
+        let mut irradiance = irradiance.to_vec();
+        crate::bake::dilate(atlas, &mut irradiance);
+        Self {
+            scene,
+            atlas,
+            irradiance,
+            tiles,
+        }
+    }
+
+    /// The surface `hit` of a ray travelling along `dir` (world) in the BVH of `ps`.
+    pub fn surface(&self, ps: &PreparedScene, dir: Vec3, hit: &Hit) -> SurfaceHit {
+        let tri = &ps.bvh.triangles[hit.tri as usize];
+        let st = &self.scene.triangles[tri.prim as usize];
+        let [p0, p1, p2] = tri.corners();
+        let (b1, b2) = (hit.u, hit.v);
+        let world = p0 * (1.0 - b1 - b2) + p1 * b1 + p2 * b2;
+        let uv = {
+            let uv = &ps.uvs[hit.tri as usize];
+            uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
+        };
+        let f = &self.atlas.faces[st.face as usize];
+        SurfaceHit {
+            face: st.face,
+            material: st.material,
+            world,
+            vlf: self.scene.to_vlf.apply(world),
+            uv,
+            side: if f.normal().dot(-dir) >= 0.0 { 0 } else { 1 },
+        }
+    }
+
+    /// Diffuse (Lambertian) radiance leaving `s` on the side its ray arrived at: albedo at its
+    /// uv / π × the atlas' irradiance there.
+    pub fn diffuse(&self, s: &SurfaceHit) -> Vec3 {
+        let m = &self.scene.materials[s.material as usize];
+        let mut rho = m.diffuse_albedo();
+        if rho == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        if let Some(t) = m.base_color_texture {
+            rho *= self.scene.textures[t.index as usize]
+                .bilinear(s.uv)
+                .truncate();
+        }
+        let f = &self.atlas.faces[s.face as usize];
+        rho * std::f32::consts::FRAC_1_PI * chart_bilinear(f, &self.irradiance, s.side, s.vlf)
+    }
+
+    /// Emitted radiance of `s` (the front side emits).
+    pub fn emission(&self, s: &SurfaceHit) -> Vec3 {
+        let m = &self.scene.materials[s.material as usize];
+        if s.side != 0 || !m.is_emissive() {
+            return Vec3::ZERO;
+        }
+        match m.emissive_texture {
+            Some(t) => {
+                m.emission
+                    * self.scene.textures[t.index as usize]
+                        .bilinear(s.uv)
+                        .truncate()
+            }
+            None => m.emission,
+        }
+    }
+
+    /// Specular radiance leaving `s` towards its ray's origin (travelling along −`dir`), from
+    /// the face's tiles (zero for diffuse faces).
+    pub fn specular(&self, s: &SurfaceHit, dir: Vec3) -> Vec3 {
+        match &self.tiles {
+            Some(tiles) => {
+                let f = &self.atlas.faces[s.face as usize];
+                tiles.radiance_towards(s.face, f.normal(), s.vlf, -dir)
+            }
+            None => Vec3::ZERO,
+        }
+    }
+}
 
 /// Continuous chart coordinates (texel units) of plane point `p` on face `f`.
 pub fn chart_coords(f: &BakeFace, p: Vec3) -> Vec2 {

@@ -29,7 +29,7 @@ use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Hit, PreparedScene, Ray};
 use crate::scene::Scene;
-use field::{Tiles, chart_bilinear};
+use field::{Field, Tiles, chart_bilinear};
 use points::{Charts, Openness, TexelPoints};
 
 /// The propagated light field the gather reads.
@@ -91,40 +91,18 @@ const STREAM_DIRECT: u32 = 2;
 const SEED: u32 = 0x6a7e_5eed;
 
 struct Gatherer<'a> {
-    scene: &'a Scene,
     ps: PreparedScene<'a>,
-    field: &'a Converged<'a>,
-    /// The propagation's irradiance, dilated for bilinear reads.
-    e_prop: Vec<[f32; 4]>,
-    tiles: Option<Tiles<'a>>,
+    /// The propagated light field.
+    field: Field<'a>,
+    sky: Vec3,
 }
 
 impl Gatherer<'_> {
-    /// Radiance arriving along `dir` from the first hit `hit` (world), emission excluded.
+    /// Radiance arriving along `dir` from the first hit `hit` (world), emission excluded (the
+    /// direct part).
     fn field_radiance(&self, dir: Vec3, hit: &Hit) -> Vec3 {
-        let tri = &self.ps.bvh.triangles[hit.tri as usize];
-        let st = &self.scene.triangles[tri.prim as usize];
-        let [p0, p1, p2] = tri.corners();
-        let pw = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
-        let p = self.scene.to_vlf.apply(pw);
-        let f = &self.field.prep.faces[st.face as usize];
-        let side = if f.normal().dot(-dir) >= 0.0 { 0 } else { 1 };
-        let m = &self.scene.materials[st.material as usize];
-        let uv = {
-            let uv = &self.ps.uvs[hit.tri as usize];
-            uv[0] * (1.0 - hit.u - hit.v) + uv[1] * hit.u + uv[2] * hit.v
-        };
-        let mut rho = m.diffuse_albedo();
-        if let Some(t) = m.base_color_texture {
-            rho *= self.scene.textures[t.index as usize]
-                .bilinear(uv)
-                .truncate();
-        }
-        let mut l = rho * std::f32::consts::FRAC_1_PI * chart_bilinear(f, &self.e_prop, side, p);
-        if let Some(tiles) = &self.tiles {
-            l += tiles.radiance_towards(st.face, f.normal(), p, -dir);
-        }
-        l
+        let s = self.field.surface(&self.ps, dir, hit);
+        self.field.diffuse(&s) + self.field.specular(&s, dir)
     }
 
     /// Reflected irradiance of texel `t` of the grid behind `pts` (emission and sky, the direct
@@ -217,7 +195,7 @@ impl Gatherer<'_> {
                     .bvh
                     .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
             if !hit.is_hit() {
-                sum += self.field.sky * (std::f32::consts::PI / fb);
+                sum += self.sky * (std::f32::consts::PI / fb);
                 continue;
             }
             let tri = &self.ps.bvh.triangles[hit.tri as usize];
@@ -304,16 +282,17 @@ pub fn final_gather(
     threads: usize,
 ) -> Result<Gathered, ParamsError> {
     let prep = field.prep;
-    let mut e_prop = field.irradiance.to_vec();
-    crate::bake::dilate(prep, &mut e_prop);
     let g = Gatherer {
-        scene,
         ps: PreparedScene::new(scene),
-        field,
-        e_prop,
-        tiles: field
-            .tiles
-            .map(|(index, values)| Tiles::new(index, values, field.directions)),
+        field: Field::new(
+            scene,
+            prep,
+            field.irradiance,
+            field
+                .tiles
+                .map(|(index, values)| Tiles::new(index, values, field.directions)),
+        ),
+        sky: field.sky,
     };
     let xf = scene.to_vlf;
 
