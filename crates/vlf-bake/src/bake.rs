@@ -125,6 +125,8 @@ pub struct BakeReport {
     pub energy: EnergyReport,
     /// The final gather's bookkeeping (absent with `--final-gather off`).
     pub gather: Option<GatherReport>,
+    /// The mirror tiles' resampling (with the final gather, on scenes with mirrors).
+    pub resample: Option<vlf_core::resample::ResampleStats>,
     pub memory: MemoryReport,
     pub output_bytes: u64,
     pub warnings: Vec<String>,
@@ -302,6 +304,7 @@ pub fn bake_scene(
             unshot_fraction: if src > 0.0 { energy.unshot / src } else { 0.0 },
             imbalance: energy.relative_imbalance(),
         },
+        resample: finished.resample,
         gather: finished.gather.map(|stats| GatherReport {
             relative_difference: stats.relative_difference(),
             stats,

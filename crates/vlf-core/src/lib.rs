@@ -17,4 +17,5 @@ pub mod pathtrace;
 pub mod pipeline;
 pub mod psf;
 pub mod radiosity;
+pub mod resample;
 pub mod scene;

@@ -1,6 +1,6 @@
-//! A whole bake on the host, above `bake` and `gather`: the CPU propagation (or one handed in by
-//! the GPU propagator), the final gather when the parameters ask for it, and the assembled
-//! light field.
+//! A whole bake on the host, above `bake`, `gather` and `resample`: the CPU propagation (or one
+//! handed in by the GPU propagator), the final gather and the mirror tiles' resampling when the
+//! parameters ask for them, and the assembled light field.
 
 use glam::Vec4;
 
@@ -9,6 +9,7 @@ use crate::bake::{BakeError, BakeScene, try_assemble};
 use crate::directions::DirectionSet;
 use crate::gather::{Converged, GatherStats, final_gather};
 use crate::lightfield::{BakeParams, BakeStats, LightField};
+use crate::resample::{ResampleStats, resample_tiles};
 use crate::scene::Scene;
 
 /// A finished bake.
@@ -16,6 +17,8 @@ pub struct Finished {
     pub light_field: LightField,
     /// The gather's bookkeeping, when it ran.
     pub gather: Option<GatherStats>,
+    /// The mirror tiles' resampling, when it ran (with the gather, on scenes with mirrors).
+    pub resample: Option<ResampleStats>,
 }
 
 /// Finishes a propagation of `prep`: runs the final gather (`params.final_gather`, on `threads`
@@ -34,6 +37,7 @@ pub fn finish(
         return Ok(Finished {
             light_field,
             gather: None,
+            resample: None,
         });
     };
     let field = Converged {
@@ -56,15 +60,34 @@ pub fn finish(
             (le + rho * e * std::f32::consts::FRAC_1_PI).into()
         })
         .collect();
+    // The mirror tiles, resampled by tracing true reflected rays into the gathered field.
+    let mut resample = None;
+    let tiles = propagated.tiles.as_ref().map(|(index, values)| {
+        let (new, stats) = resample_tiles(
+            scene,
+            prep,
+            &g.atlas,
+            &g.irradiance,
+            index,
+            values,
+            &directions,
+            params.sky,
+            threads,
+        );
+        resample = Some(stats);
+        (index.clone(), new)
+    });
     let gathered = Propagated {
         radiance,
         irradiance: g.irradiance,
+        tiles,
         ..propagated
     };
     let light_field = try_assemble(scene, &g.atlas, params, directions, gathered, stats)?;
     Ok(Finished {
         light_field,
         gather: Some(g.stats),
+        resample,
     })
 }
 
