@@ -84,6 +84,28 @@ fn exr_round_trip_is_bit_exact() {
     assert_eq!(read_exr(&path).unwrap().pixels, vec![[0.5; 3]; 4]);
 }
 
+/// The same image written twice gives the same bytes: scripts compare stills by hash, and the
+/// parallel EXR writer used to store chunks in whatever order they finished.
+#[test]
+fn exr_bytes_are_the_same_run_to_run() {
+    let dir = tmp_dir("exr_bytes_stable");
+    // Tall enough for many chunks (ZIP compresses 16 rows per chunk).
+    let img = Image::from_fn(64, 512, |x, y| {
+        let f = ((y * 64 + x) as f32 * 0.618_034).fract();
+        [f, 1.0 - f, f * f]
+    });
+    let bytes: Vec<Vec<u8>> = (0..4)
+        .map(|i| {
+            let p = dir.join(format!("{i}.exr"));
+            write_exr(&p, &img).unwrap();
+            std::fs::read(&p).unwrap()
+        })
+        .collect();
+    for (i, b) in bytes.iter().enumerate().skip(1) {
+        assert!(*b == bytes[0], "write {i} differs from write 0");
+    }
+}
+
 #[test]
 fn exr_reads_half_channels() {
     use exr::prelude::f16;

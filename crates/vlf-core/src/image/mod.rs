@@ -349,9 +349,12 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, ImageError> {
 }
 
 /// Writes `image` as an OpenEXR file with float32 R, G, B channels (lossless compression),
-/// atomically (temporary file in the same directory, then rename).
+/// atomically (temporary file in the same directory, then rename). Chunks are stored in
+/// increasing order, so the same image always gives the same bytes (with the crate's default,
+/// "unspecified" order, they are stored as the compressing threads finish them, which changes
+/// from run to run).
 pub fn write_exr(path: impl AsRef<Path>, image: &Image) -> Result<(), ImageError> {
-    use exr::prelude::{SpecificChannels, Vec2, WritableImage};
+    use exr::prelude::{Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
 
     let path = path.as_ref();
     image.check_consistent(path)?;
@@ -360,7 +363,12 @@ pub fn write_exr(path: impl AsRef<Path>, image: &Image) -> Result<(), ImageError
         let p = image.pixels[y * w + x];
         (p[0], p[1], p[2])
     });
-    let exr_image = exr::image::Image::from_channels((w, image.height as usize), channels);
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    let exr_image =
+        exr::image::Image::from_encoded_channels((w, image.height as usize), encoding, channels);
     write_atomically(path, |file| {
         exr_image.write().to_buffered(file).map_err(|e| match e {
             exr::error::Error::Io(source) => ImageError::Io {
