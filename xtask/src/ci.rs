@@ -54,6 +54,12 @@ pub fn ci(root: &Path) -> Result<()> {
         "{}",
         crate::modgraph::check(root, Path::new(LAYERED_CRATE))?
     );
+    eprintln!("==> source file lengths");
+    let n = crate::lengths::check(root)?;
+    eprintln!(
+        "{n} source files, none over {} lines",
+        crate::lengths::MAX_LINES
+    );
     step(
         "clippy",
         cargo(root).args([
