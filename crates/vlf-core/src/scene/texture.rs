@@ -15,6 +15,28 @@ pub enum WrapMode {
 }
 
 impl WrapMode {
+    /// Every mode, in [`id`](Self::id) order.
+    pub const ALL: [WrapMode; 3] = [
+        WrapMode::Repeat,
+        WrapMode::ClampToEdge,
+        WrapMode::MirroredRepeat,
+    ];
+
+    /// The mode's id in `.vlf` files and on the GPU (`shaders/common/texture.wgsl`): 0 repeat,
+    /// 1 clamp to edge, 2 mirrored repeat.
+    pub fn id(self) -> u32 {
+        match self {
+            WrapMode::Repeat => 0,
+            WrapMode::ClampToEdge => 1,
+            WrapMode::MirroredRepeat => 2,
+        }
+    }
+
+    /// The mode with [`id`](Self::id) `id`, if any.
+    pub fn from_id(id: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.id() == id)
+    }
+
     /// Maps an integer texel coordinate into `0..size`.
     pub fn wrap(self, i: i64, size: u32) -> u32 {
         let n = i64::from(size.max(1));

@@ -13,7 +13,6 @@
 //! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns.
 
 use vlf_core::pathtrace::{NONE, PreparedScene};
-use vlf_core::scene::WrapMode;
 
 /// The packed shading data and where each section starts.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -31,14 +30,6 @@ pub struct PackedScene {
 
 fn bits(x: u32) -> f32 {
     f32::from_bits(x)
-}
-
-fn wrap_code(w: WrapMode) -> u32 {
-    match w {
-        WrapMode::Repeat => 0,
-        WrapMode::ClampToEdge => 1,
-        WrapMode::MirroredRepeat => 2,
-    }
 }
 
 /// Packs the shading data of `prep` (see the module docs for the layout).
@@ -76,7 +67,7 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
             bits(offset as u32),
             bits(w),
             bits(h),
-            bits(wrap_code(t.wrap_s) | (wrap_code(t.wrap_t) << 4)),
+            bits(t.wrap_s.id() | (t.wrap_t.id() << 4)),
         ]);
         if usable {
             offset += t.pixels.len();
@@ -107,7 +98,7 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
 mod tests {
     use super::*;
     use glam::{Vec3, Vec4};
-    use vlf_core::scene::{FilterMode, SceneBuilder, Texture};
+    use vlf_core::scene::{FilterMode, SceneBuilder, Texture, WrapMode};
 
     #[test]
     fn sections_follow_each_other() {
