@@ -6,15 +6,21 @@
 // crates/vlf-gpu/src/render/upload.rs for their layout).
 //
 // * No face (pass 3 = u32::MAX): the bake's sky radiance.
-// * Diffuse faces (kind 0): the face's total outgoing radiance read bilinearly from the atlas at
-//   the pass-4 position, on the side facing the camera (side 0 = front/normal side). The chart
-//   is a width × height grid of square texels of edge texel_size on the face's (origin, u, v)
-//   basis; texel centres sit at (i + 0.5, j + 0.5) · texel_size. Bilinear weights are taken in
-//   chart coordinates with the texel indices clamped to the chart (clamp-to-edge), so filtering
-//   never crosses into another face's or side's texels. Uncovered texels (outside the polygon)
-//   are filled by the bake's dilation, so plain bilinear filtering is correct at polygon edges.
-// * Mirror / mixed faces (kind 1, 2): the diffuse texels (the diffuse part of mixed faces) plus
-//   the specular part from the sparse per-direction tiles: radiance towards the eye travels
+// * Every face, on the side facing the camera (side 0 = front/normal side):
+//     L = Le(uv) [side 0 only] + ρ_d(uv) / π · E
+//   E is the atlas irradiance read bilinearly at the pass-4 position. The chart is a width ×
+//   height grid of square texels of edge texel_size on the face's (origin, u, v) basis; texel
+//   centres sit at (i + 0.5, j + 0.5) · texel_size. Bilinear weights are taken in chart
+//   coordinates with the texel indices clamped to the chart (clamp-to-edge), so filtering never
+//   crosses into another face's or side's texels. Uncovered texels (outside the polygon) are
+//   filled by the bake's dilation, so plain bilinear filtering is correct at polygon edges.
+//   ρ_d / π (diffuse weight × base colour / π, 0 for mirrors) and Le (the emission factor) come
+//   with the face record; a base-colour or emissive texture multiplies them, looked up at the
+//   pixel's uv (pass 4's second target) bilinearly with its wrap modes (common/texture.wgsl).
+//   Flags in the face record skip what a face does not need: faces without a diffuse part read
+//   no atlas, untextured faces no uv and no texel, non-emitters no emission.
+// * Mirror / mixed faces (kind 1, 2) add the specular part from the sparse per-direction
+//   tiles: radiance towards the eye travels
 //   against the view ray, so the three sphere vertices of pass 1 are taken in the opposite
 //   sense, with the pass-2 weights; for each, the position maps into that direction's ray grid
 //   and the tile values of the covered cells around it are filtered bilinearly.
@@ -27,25 +33,37 @@
 #import "common/render_globals.wgsl"
 #import "common/fullscreen.wgsl"
 #import "common/display_mapping.wgsl"
+#import "common/texture.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl).
 
 const FACE_DIFFUSE: u32 = 0u;
 // Must match upload.rs.
 const ATLAS_WIDTH: u32 = 4096u;
-const FACE_RECORD_TEXELS: u32 = 5u;
+const FACE_RECORD_TEXELS: u32 = 7u;
 const FACES_PER_ROW: u32 = 1024u;
+// Face flags (bits of the face record's texel 0 w above the kind).
+const KIND_MASK: u32 = 0xffu;
+const FLAG_DIFFUSE: u32 = 0x100u;
+const FLAG_BASE_TEXTURE: u32 = 0x200u;
+const FLAG_EMISSIVE: u32 = 0x400u;
+const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
+// Whether the light field has textures at all. A pipeline constant rather than a flag: llvmpipe
+// runs divergent branches under a mask at every pixel, so without textures the texture code is
+// compiled out instead of skipped.
+override TEXTURED: bool = true;
 
 @group(1) @binding(0) var direction_ids: texture_2d<u32>;
 @group(1) @binding(1) var barycentrics: texture_2d<f32>;
 @group(1) @binding(2) var face_ids: texture_2d<u32>;
 @group(1) @binding(3) var positions: texture_2d<f32>;
-// Face records: 5 texels per face (normal, kind | origin, texel_size | u, width | v, height |
-// texel_base), floats as bits.
+// Face records: 7 texels per face (normal, kind | flags · origin, texel_size · u, width ·
+// v, height · ρ_d/π, texel_base · Le, 0 · base-colour texture, emissive texture, 0, 0), floats
+// as bits.
 @group(1) @binding(4) var face_records: texture_2d<u32>;
-// Total outgoing radiance per atlas texel (rgb; a unused), both sides of every face, in the
-// light field's stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel
-// fetch decodes it exactly, so the shader is the same for both.
+// Irradiance per atlas texel (rgb; a unused), both sides of every face, in the light field's
+// stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel fetch decodes
+// it exactly, so the shader is the same for both.
 @group(1) @binding(5) var atlas: texture_2d<f32>;
 // Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
 @group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
@@ -54,16 +72,25 @@ const FACES_PER_ROW: u32 = 1024u;
 @group(1) @binding(7) var tile_words: texture_2d<u32>;
 @group(1) @binding(8) var tile_values: texture_2d<f32>;
 @group(1) @binding(9) var frames: texture_2d<f32>;
+// Pass 4's second target: the visible point's TEXCOORD_0.
+@group(1) @binding(10) var uvs: texture_2d<f32>;
+// Textures (see upload.rs): a record per texture ([first texel, width, height, wrap_s |
+// wrap_t << 4]) and every texel (linear RGB, Rgba16Float), ATLAS_WIDTH wide.
+@group(1) @binding(11) var texture_records: texture_2d<u32>;
+@group(1) @binding(12) var texels: texture_2d<f32>;
 
 struct Face {
     normal: vec3<f32>,
     kind: u32,
+    flags: u32,
     origin: vec3<f32>,
     texel_size: f32,
     u: vec3<f32>,
     width: u32,
     v: vec3<f32>,
     height: u32,
+    // Diffuse albedo factor / π.
+    rho_over_pi: vec3<f32>,
     texel_base: u32,
 }
 
@@ -79,11 +106,11 @@ fn load_face(face: u32) -> Face {
     let r3 = face_texel(face, 3u);
     let r4 = face_texel(face, 4u);
     return Face(
-        bitcast<vec3<f32>>(r0.xyz), r0.w,
+        bitcast<vec3<f32>>(r0.xyz), r0.w & KIND_MASK, r0.w & ~KIND_MASK,
         bitcast<vec3<f32>>(r1.xyz), bitcast<f32>(r1.w),
         bitcast<vec3<f32>>(r2.xyz), r2.w,
         bitcast<vec3<f32>>(r3.xyz), r3.w,
-        r4.x,
+        bitcast<vec3<f32>>(r4.xyz), r4.w,
     );
 }
 
@@ -91,9 +118,28 @@ fn atlas_texel(i: u32) -> vec3<f32> {
     return textureLoad(atlas, vec2<u32>(i % ATLAS_WIDTH, i / ATLAS_WIDTH), 0).rgb;
 }
 
-// Atlas radiance of face `f` at plane point `p` on `side`, bilinear within the chart.
-// Mirrored exactly on the CPU by vlf_gpu::render::final_radiance::diffuse_radiance.
-fn diffuse_radiance(f: Face, side: u32, p: vec3<f32>) -> vec3<f32> {
+fn texel_rgb(i: u32) -> vec3<f32> {
+    return textureLoad(texels, vec2<u32>(i % ATLAS_WIDTH, i / ATLAS_WIDTH), 0).rgb;
+}
+
+// Texture `t` at `uv`, bilinear with its wrap modes (common/texture.wgsl). Mirrored exactly on
+// the CPU by vlf_core::lightfield::Shading::sample.
+fn surface_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
+    let r = textureLoad(texture_records, vec2<u32>(t % ATLAS_WIDTH, t / ATLAS_WIDTH), 0);
+    let first = r.x;
+    let w = r.y;
+    let x = texel_axis(uv.x, w, r.w & 15u);
+    let y = texel_axis(uv.y, r.z, r.w >> 4u);
+    let row0 = first + y.i0 * w;
+    let row1 = first + y.i1 * w;
+    let top = mix(texel_rgb(row0 + x.i0), texel_rgb(row0 + x.i1), x.f);
+    let bottom = mix(texel_rgb(row1 + x.i0), texel_rgb(row1 + x.i1), x.f);
+    return mix(top, bottom, y.f);
+}
+
+// Atlas irradiance of face `f` at plane point `p` on `side`, bilinear within the chart.
+// Mirrored exactly on the CPU by vlf_gpu::render::final_radiance::atlas_irradiance.
+fn atlas_irradiance(f: Face, side: u32, p: vec3<f32>) -> vec3<f32> {
     let d = p - f.origin;
     let x = dot(d, f.u) / f.texel_size - 0.5;
     let y = dot(d, f.v) / f.texel_size - 0.5;
@@ -213,6 +259,34 @@ fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) 
     return out;
 }
 
+// Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` on `side`. Mirrored
+// exactly on the CPU by vlf_gpu::render::final_radiance::surface_radiance.
+fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
+    let textured = TEXTURED && (f.flags & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE)) != 0u;
+    var uv = vec2<f32>(0.0);
+    var tex = vec2<u32>(0u);
+    if textured {
+        uv = textureLoad(uvs, px, 0).xy;
+        tex = face_texel(face, 6u).xy;
+    }
+    var l = vec3<f32>(0.0);
+    if (f.flags & FLAG_DIFFUSE) != 0u {
+        var rho = f.rho_over_pi;
+        if TEXTURED && (f.flags & FLAG_BASE_TEXTURE) != 0u {
+            rho = rho * surface_texture(tex.x, uv);
+        }
+        l = rho * atlas_irradiance(f, side, p);
+    }
+    if side == 0u && (f.flags & FLAG_EMISSIVE) != 0u {
+        var le = bitcast<vec3<f32>>(face_texel(face, 5u).xyz);
+        if TEXTURED && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u {
+            le = le * surface_texture(tex.y, uv);
+        }
+        l = l + le;
+    }
+    return l;
+}
+
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_vertex(vi);
@@ -229,7 +303,7 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
         let f = load_face(face);
         // The side facing the camera: front (0) when the eye is on the normal's side.
         let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
-        l = diffuse_radiance(f, side, p);
+        l = surface_radiance(face, f, side, p, px);
         if f.kind != FACE_DIFFUSE {
             l += specular_radiance(face, f.normal, p, px);
         }

@@ -1,9 +1,11 @@
-// Render pass 4 of 5 (paper §4): VLF position of the visible surface.
+// Render pass 4 of 5 (paper §4): VLF position and TEXCOORD_0 of the visible surface.
 //
-// The scene drawn again with each vertex coloured by its VLF position; interpolation gives the
-// point where the pixel's view ray meets the visible face. Reuses pass 3's depth buffer
-// (test "greater or equal", no depth writes), so only the visible surface is shaded.
-// Output: xyz = position, w = 1 where a surface is seen (0 = background).
+// The scene drawn again with each vertex coloured by its VLF position and its uv; interpolation
+// gives the point where the pixel's view ray meets the visible face and the texture coordinate
+// there (perspective-correct, so it is exact for the planar triangle). Reuses pass 3's depth
+// buffer (test "greater or equal", no depth writes), so only the visible surface is shaded.
+// Outputs: xyz = position, w = 1 where a surface is seen (0 = background); the uv (only read
+// by pass 5 for textured faces, so it is not cleared).
 
 #import "common/render_globals.wgsl"
 #import "common/bake_scene.wgsl"
@@ -11,10 +13,18 @@
 // Group 0: `g` (common/render_globals.wgsl).
 
 @group(1) @binding(0) var<storage, read> triangles: array<BakeTriangle>;
+// TEXCOORD_0 per triangle corner (three per triangle, in triangle order).
+@group(1) @binding(1) var<storage, read> corner_uvs: array<vec2<f32>>;
 
 struct PositionOut {
     @builtin(position) @invariant clip: vec4<f32>,
     @location(0) position: vec3<f32>,
+    @location(1) uv: vec2<f32>,
+}
+
+struct PositionTargets {
+    @location(0) position: vec4<f32>,
+    @location(1) uv: vec2<f32>,
 }
 
 @vertex
@@ -23,10 +33,11 @@ fn vs_main(@builtin(vertex_index) vi: u32) -> PositionOut {
     var out: PositionOut;
     out.clip = g.view_proj * vec4<f32>(p, 1.0);
     out.position = p;
+    out.uv = corner_uvs[vi];
     return out;
 }
 
 @fragment
-fn fs_main(in: PositionOut) -> @location(0) vec4<f32> {
-    return vec4<f32>(in.position, 1.0);
+fn fs_main(in: PositionOut) -> PositionTargets {
+    return PositionTargets(vec4<f32>(in.position, 1.0), in.uv);
 }

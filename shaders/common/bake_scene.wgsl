@@ -36,5 +36,5 @@ struct BakeFace {
     texel_base: u32,
     kind: u32,
     specular: f32,
-    _pad: u32,
+    material: u32,
 }

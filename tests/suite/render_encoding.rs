@@ -3,12 +3,13 @@
 //! `Radiance::get` does (so a loaded file renders as it did when the reader decoded to f32),
 //! and both encodings must render the light field they hold.
 
-use glam::Vec4;
+use glam::{Vec2, Vec4};
 use vlf_core::lightfield::{
     BakeParams, Iterations, LightField, Radiance, RadianceEncoding, encoding::f16_decode,
 };
 use vlf_gpu::readback::{read_buffer, storage_buffer};
-use vlf_gpu::render::final_radiance::{diffuse_radiance, visible_side};
+use vlf_gpu::render::final_radiance::{atlas_irradiance, surface_radiance, visible_side};
+use vlf_gpu::render::upload::rho_over_pi;
 use vlf_gpu::render::upload::{ATLAS_WIDTH, radiance_texture};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
 use vlf_tests::{gpu, repo_dir};
@@ -152,7 +153,7 @@ fn bake(scene: &str) -> LightField {
 
 fn with_encoding(lf: &LightField, enc: RadianceEncoding) -> LightField {
     let mut lf = lf.clone();
-    lf.radiance = lf.radiance.to_encoding(enc);
+    lf.irradiance = lf.irradiance.to_encoding(enc);
     if let Some(t) = lf.tiles.as_mut() {
         t.radiance = t.radiance.to_encoding(enc);
     }
@@ -165,12 +166,13 @@ fn both_encodings_render_their_radiance() {
     let (w, h) = (64, 64);
     let diffuse = bake("assets/cornell-box/cornell-box.gltf");
     let mirror = bake("assets/cornell-mirror/cornell-mirror.gltf");
-    assert_eq!(diffuse.radiance.encoding(), RadianceEncoding::RgbF16);
+    assert_eq!(diffuse.irradiance.encoding(), RadianceEncoding::RgbF16);
     for lf in [&diffuse, &mirror] {
         let cam = CameraView::from_gltf(&lf.cameras[0], &lf.to_vlf);
         let mut images = Vec::new();
         for enc in RadianceEncoding::ALL {
             let lf = with_encoding(lf, enc);
+            let offsets = lf.shading.texture_offsets();
             let mut r = Renderer::new(ctx, &lf).unwrap();
             let f = r.render_frame_data(ctx, &cam, w, h).unwrap();
             // Diffuse faces: the CPU lookup of the same stored values.
@@ -181,7 +183,8 @@ fn both_encodings_render_their_radiance() {
                 }
                 let bf = &lf.faces[face as usize];
                 let p = Vec4::from(f.position[i]).truncate();
-                let want = diffuse_radiance(bf, &lf.radiance, visible_side(bf, cam.position, p), p);
+                let side = visible_side(bf, cam.position, p);
+                let want = surface_radiance(&lf, &offsets, face, side, p, Vec2::from(f.uv[i]));
                 let got = Vec4::from(f.radiance[i]).truncate();
                 let tol = 1e-4 * want.abs().max_element().max(1e-3);
                 assert!(
@@ -190,16 +193,34 @@ fn both_encodings_render_their_radiance() {
                     enc.name()
                 );
             }
-            images.push(f.radiance);
+            images.push(f);
         }
-        // RGB9E5 vs f16: within RGB9E5's error (≤ 1/511 of a texel's largest channel).
+        // RGB9E5 vs f16: within RGB9E5's error, ≤ 1/511 of a stored value's largest channel:
+        // of the irradiance (times ρ_d/π per channel) on diffuse faces, of the tile radiance on
+        // mirrors.
         let (mut diff, mut sum) = (0f64, 0f64);
-        for (a, b) in images[0].iter().zip(&images[1]) {
+        assert_eq!(RadianceEncoding::ALL[1], RadianceEncoding::RgbF16);
+        let f16 = &images[1];
+        for (i, (a, b)) in images[0]
+            .radiance
+            .iter()
+            .zip(&images[1].radiance)
+            .enumerate()
+        {
             let (a, b) = (Vec4::from(*a).truncate(), Vec4::from(*b).truncate());
-            let scale = a.max(b).max_element();
+            let face = f16.face_id[i];
+            let bound = if face != NO_FACE && lf.faces[face as usize].kind == 0 {
+                let bf = &lf.faces[face as usize];
+                let p = Vec4::from(f16.position[i]).truncate();
+                let e = atlas_irradiance(bf, &lf.irradiance, visible_side(bf, cam.position, p), p);
+                let m = &lf.shading.materials[bf.material as usize];
+                rho_over_pi(m) * e.max_element()
+            } else {
+                glam::Vec3::splat(a.max(b).max_element())
+            };
             assert!(
-                (a - b).abs().max_element() <= scale / 400.0 + 1e-6,
-                "{a} vs {b}"
+                (a - b).abs().cmple(bound / 400.0 + 1e-6).all(),
+                "pixel {i}: {a} vs {b}"
             );
             diff += f64::from((a - b).abs().element_sum());
             sum += f64::from((a + b).element_sum()) / 2.0;

@@ -32,10 +32,10 @@ fn both(scene: &Scene, params: &BakeParams) -> Option<(BakeScene, Propagated, Pr
     Some((prep, cpu, gpu))
 }
 
-/// Asserts the GPU bake equals the CPU one: radiance (area-weighted mean relative difference
+/// Asserts the GPU bake equals the CPU one: irradiance (area-weighted mean relative difference
 /// over covered texels above 1e-4 < 1e-3), mirror tiles, and the energy terms; no NaN.
 fn assert_gpu_matches(what: &str, prep: &BakeScene, cpu: &Propagated, gpu: &Propagated) {
-    for (t, l) in gpu.radiance.iter().enumerate() {
+    for (t, l) in gpu.irradiance.iter().enumerate() {
         assert!(
             l.iter().all(|x| x.is_finite() && *x >= 0.0),
             "{what}: GPU texel {t} = {l:?}"
@@ -43,8 +43,8 @@ fn assert_gpu_matches(what: &str, prep: &BakeScene, cpu: &Propagated, gpu: &Prop
     }
     assert_eq!(cpu.iterations, gpu.iterations, "{what}: iterations");
     let (mut sum, mut area, mut max) = (0f64, 0f64, 0f32);
-    for t in 0..cpu.radiance.len() {
-        let (x, y) = (Vec4::from(cpu.radiance[t]), Vec4::from(gpu.radiance[t]));
+    for t in 0..cpu.irradiance.len() {
+        let (x, y) = (Vec4::from(cpu.irradiance[t]), Vec4::from(gpu.irradiance[t]));
         if prep.texel_area[t] <= 0.0 || x.max_element() <= 1e-4 {
             continue;
         }
@@ -193,7 +193,7 @@ fn gpu_stability_needle_wall_passes_no_light() {
         for &s in sides {
             let base = (pf.texel_base + s * pf.texels_per_side()) as usize;
             for t in base..base + pf.texels_per_side() as usize {
-                dark = dark.max(Vec4::from(gpu.radiance[t]).max_element());
+                dark = dark.max(Vec4::from(gpu.irradiance[t]).max_element());
             }
         }
     }
@@ -250,7 +250,7 @@ fn gpu_stability_coplanar_decal() {
     let set = DirectionSet::at_least(p.directions).unwrap();
     let again = vlf_gpu::bake::propagate(gpu_ctx(), &prep, &set, &p, &mut |_| {}).unwrap();
     let bits = |o: &Propagated| -> Vec<u32> {
-        o.radiance
+        o.irradiance
             .iter()
             .flat_map(|l| l.map(f32::to_bits))
             .collect()

@@ -160,7 +160,8 @@ pub struct GatherReport {
 pub struct MemoryReport {
     /// Radiance during propagation: unshot, next and total maps (f32 RGBA) plus accumulators.
     pub propagation_bytes: u64,
-    /// Radiance kept for rendering (total map, in its stored encoding in memory).
+    /// What is kept for rendering: atlas irradiance and mirror tiles (in their stored
+    /// encoding in memory), materials, uvs and textures.
     pub render_bytes: u64,
     /// Of which the sparse mirror tiles (total map).
     pub tile_bytes: u64,
@@ -311,9 +312,7 @@ pub fn bake_scene(
         }),
         memory: MemoryReport {
             propagation_bytes: (texels + tile_values) * 3 * 16 + texels * 32,
-            render_bytes: (lf.radiance.byte_len()
-                + lf.tiles.as_ref().map_or(0, |t| t.radiance.byte_len()))
-                as u64,
+            render_bytes: (lf.light_bytes() + lf.shading.byte_len()) as u64,
             tile_bytes: lf.tiles.as_ref().map_or(0, |t| t.radiance.byte_len()) as u64,
             plan,
         },

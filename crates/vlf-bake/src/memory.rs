@@ -16,7 +16,7 @@
 //!   every host item for the allocator;
 //! * CPU path (host memory; one direction at a time):
 //!   `52 X` prepared texel arrays (area, centre, albedo, emission) + `3 × 16 X` radiance (unshot,
-//!   next, total) + `36 X` accumulators and face ids + `3 × 16 V` tile values + tile index +
+//!   next) and irradiance + `36 X` accumulators and face ids + `3 × 16 V` tile values + tile index +
 //!   reflect jobs + `40 × min(N² k_max, m² max_d B_d, max_d C_d)` crossing lists (per
 //!   crossing a depth entry of 8 B and the arriving radiance, 28 B on the CPU and 32 B on the
 //!   GPU; `C_d` = Σ over triangles of the cells their projected bounding box covers, widened by

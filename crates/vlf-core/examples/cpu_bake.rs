@@ -57,18 +57,19 @@ fn main() {
         100.0 * out.energy.relative_imbalance()
     );
     // mean radiance per face (side 0)
+    let radiance = prep.outgoing_radiance(&out.irradiance);
     for (i, f) in prep.faces.iter().enumerate() {
         let n = f.texels_per_side() as usize;
         let s = f.texel_base as usize;
         let mut sum = glam::Vec3::ZERO;
         let mut a = 0.0;
         for t in s..s + n {
-            sum += glam::Vec4::from(out.radiance[t]).truncate() * prep.texel_area[t];
+            sum += glam::Vec4::from(radiance[t]).truncate() * prep.texel_area[t];
             a += prep.texel_area[t];
         }
         let mut sumb = glam::Vec3::ZERO;
         for t in s + n..s + 2 * n {
-            sumb += glam::Vec4::from(out.radiance[t]).truncate() * prep.texel_area[t];
+            sumb += glam::Vec4::from(radiance[t]).truncate() * prep.texel_area[t];
         }
         println!(
             "face {i:2} {}x{} mean front {:?} back {:?}",

@@ -4,7 +4,7 @@
 //!
 //! - `plain`: `std::fs::read` of the file (the floor for any reader),
 //! - `format::read` (header, checksums of every section, validation; the radiance stays in its
-//!   stored encoding, as `LightField::radiance` keeps it), run alternately with `plain` so both
+//!   stored encoding, as `LightField::irradiance` keeps it), run alternately with `plain` so both
 //!   see the same machine load: `ratio` is of the best times, `paired` the median of the
 //!   per-run ratios,
 //! - `describe` (header and section table only),
@@ -23,7 +23,8 @@ use std::time::Instant;
 use vlf_core::directions::DirectionSet;
 use vlf_core::format;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, LightField, Radiance, RadianceEncoding,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, LightField, NO_TEXTURE, Radiance,
+    RadianceEncoding, Shading, SurfaceMaterial,
 };
 use vlf_core::scene::{SceneSummary, Similarity};
 
@@ -55,7 +56,7 @@ fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
             texel_base: base,
             kind: 0,
             specular: 0.0,
-            _pad: 0,
+            material: 0,
         });
         base += 2 * side * side;
         for k in 0..2 {
@@ -107,9 +108,20 @@ fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
             warnings: 0,
         },
         cameras: vec![],
+        shading: Shading {
+            materials: vec![SurfaceMaterial {
+                base_color: [0.8; 3],
+                diffuse_weight: 1.0,
+                emission: [0.0; 3],
+                base_color_texture: NO_TEXTURE,
+                emissive_texture: NO_TEXTURE,
+            }],
+            uvs: vec![[[0.0; 2]; 3]; tris.len()],
+            ..Shading::empty()
+        },
         triangles: tris,
         faces: fs,
-        radiance: Radiance::from_f32(&radiance, enc).expect("finite radiance"),
+        irradiance: Radiance::from_f32(&radiance, enc).expect("finite irradiance"),
         tiles: None,
         stats: BakeStats::default(),
     }
@@ -189,7 +201,7 @@ fn main() {
         let t = Instant::now();
         let bytes = format::write_atomic_with(&path, &lf, enc).expect("write");
         let write_s = t.elapsed().as_secs_f64();
-        let texels = lf.radiance.len();
+        let texels = lf.irradiance.len();
         drop(lf);
         eprintln!(
             "{}: {:.1} MB, {texels} texels, written in {write_s:.2} s; timing best of {runs}…",
@@ -200,20 +212,20 @@ fn main() {
         let plain_len = std::fs::read(&path).expect("read").len();
         assert_eq!(plain_len as u64, bytes);
         let back = format::read(&path).expect("format::read");
-        assert_eq!(back.radiance.len(), texels);
+        assert_eq!(back.irradiance.len(), texels);
         drop(back);
         let (plain, read, paired) = alternating(
             runs,
             || std::fs::read(&path).expect("read").len(),
-            || format::read(&path).expect("format::read").radiance.len(),
+            || format::read(&path).expect("format::read").irradiance.len(),
         );
         let describe = best(runs, || format::describe(&path).expect("describe").texels);
         let back = format::read(&path).expect("format::read");
-        let to_f32 = best(runs, || back.radiance.to_f32().len());
+        let to_f32 = best(runs, || back.irradiance.to_f32().len());
         let rgba16f = (enc == RadianceEncoding::RgbF16).then(|| {
             best(runs, || {
                 let mut out = vec![[0u16; 4]; texels];
-                back.radiance.rgba16f_into(0, &mut out);
+                back.irradiance.rgba16f_into(0, &mut out);
                 out.len()
             })
         });

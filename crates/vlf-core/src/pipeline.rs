@@ -2,8 +2,6 @@
 //! handed in by the GPU propagator), the final gather and the mirror tiles' resampling when the
 //! parameters ask for them, and the assembled light field.
 
-use glam::Vec4;
-
 use crate::bake::reference::{self, Propagated};
 use crate::bake::{BakeError, BakeScene, try_assemble};
 use crate::directions::DirectionSet;
@@ -49,17 +47,6 @@ pub fn finish(
         ray_spacing: 2.0 / params.resolution as f32,
     };
     let g = final_gather(scene, &field, &gp, threads)?;
-    // The stored atlas holds outgoing radiance until the file keeps irradiance: L_e + ρ·E/π.
-    let radiance = g
-        .irradiance
-        .iter()
-        .zip(&g.atlas.albedo)
-        .zip(&g.atlas.emission)
-        .map(|((e, rho), le)| {
-            let (e, rho, le) = (Vec4::from(*e), Vec4::from(*rho), Vec4::from(*le));
-            (le + rho * e * std::f32::consts::FRAC_1_PI).into()
-        })
-        .collect();
     // The mirror tiles, resampled by tracing true reflected rays into the gathered field.
     let mut resample = None;
     let tiles = propagated.tiles.as_ref().map(|(index, values)| {
@@ -77,8 +64,9 @@ pub fn finish(
         resample = Some(stats);
         (index.clone(), new)
     });
+    // The light field stores the gathered atlas and its irradiance (the renderer applies
+    // albedo and emission per pixel).
     let gathered = Propagated {
-        radiance,
         irradiance: g.irradiance,
         tiles,
         ..propagated

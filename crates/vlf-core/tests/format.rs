@@ -1,5 +1,5 @@
 //! The `.vlf` file: round trips, every rejection (message and path), atomic writes, the
-//! pinned on-disk layout, and the radiance-encoding error measurements of `docs/FORMAT.md`
+//! pinned on-disk layout, and the light-encoding error measurements of `docs/FORMAT.md`
 //! (`cargo test -p vlf-core --test format encoding_error -- --nocapture` prints the table).
 
 use std::fs;
@@ -10,13 +10,15 @@ use vlf_core::directions::DirectionSet;
 use vlf_core::format::disk::{
     self, FileFace, FileHeader, FileTriangle, PREAMBLE_LEN, Preamble, SectionEntry,
 };
+use vlf_core::format::shading::{FileMaterial, FileTexture, FileUvs};
 use vlf_core::format::{self, FormatError};
 use vlf_core::hash;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, Iterations, LightField,
-    NonFiniteRadiance, Radiance, RadianceEncoding,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, Iterations,
+    LightField, NO_TEXTURE, NonFiniteRadiance, Radiance, RadianceEncoding, Shading,
+    SurfaceMaterial, SurfaceTexture,
 };
-use vlf_core::scene::{Camera, SceneSummary, Similarity};
+use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
 
 // ----- fixtures -----------------------------------------------------------------------------
 
@@ -67,13 +69,70 @@ fn synthetic_values(texels: u32, seed: u64) -> Vec<[f32; 4]> {
     radiance
 }
 
+/// Materials of [`synthetic`]: diffuse with a base-colour texture (5 × 3, repeat / clamp),
+/// a mirror, mixed and emissive with an emissive texture (2 × 2, mirrored / repeat); face `i`
+/// has material `i % 3` (its kind). Uvs spread over [−1, 2].
+fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
+    let mut rng = Rng(seed.wrapping_mul(31) | 1);
+    let texels: Vec<[f32; 4]> = (0..5 * 3 + 2 * 2)
+        .map(|_| [rng.unit(), rng.unit(), rng.unit(), 0.0])
+        .collect();
+    Shading {
+        materials: vec![
+            SurfaceMaterial {
+                base_color: [0.9, 0.8, 0.7],
+                diffuse_weight: 1.0,
+                emission: [0.0; 3],
+                base_color_texture: 0,
+                emissive_texture: NO_TEXTURE,
+            },
+            SurfaceMaterial {
+                base_color: [1.0; 3],
+                diffuse_weight: 0.0,
+                emission: [0.0; 3],
+                base_color_texture: NO_TEXTURE,
+                emissive_texture: NO_TEXTURE,
+            },
+            SurfaceMaterial {
+                base_color: [0.5, 0.25, 0.125],
+                diffuse_weight: 0.5,
+                emission: [17.0, 12.0, 4.0],
+                base_color_texture: NO_TEXTURE,
+                emissive_texture: 1,
+            },
+        ],
+        uvs: (0..triangles)
+            .map(|_| {
+                let mut uv = || 3.0 * rng.unit() - 1.0;
+                [[uv(), uv()], [uv(), uv()], [uv(), uv()]]
+            })
+            .collect(),
+        textures: vec![
+            SurfaceTexture {
+                width: 5,
+                height: 3,
+                wrap_s: WrapMode::Repeat,
+                wrap_t: WrapMode::ClampToEdge,
+            },
+            SurfaceTexture {
+                width: 2,
+                height: 2,
+                wrap_s: WrapMode::MirroredRepeat,
+                wrap_t: WrapMode::Repeat,
+            },
+        ],
+        texels: Radiance::from_f32(&texels, RadianceEncoding::RgbF16).unwrap(),
+    }
+}
+
 /// A small synthetic light field: `faces` square-ish faces of `w × h` texels per side, two
-/// triangles each, [`synthetic_values`] radiance in the default encoding, two cameras.
+/// triangles each, [`synthetic_values`] irradiance in the default encoding,
+/// [`synthetic_shading`], two cameras.
 fn synthetic(faces: u32, w: u32, h: u32, seed: u64) -> LightField {
     synthetic_in(faces, w, h, seed, DEFAULT_ENCODING)
 }
 
-/// [`synthetic`] with the radiance encoded as `enc`.
+/// [`synthetic`] with the irradiance encoded as `enc`.
 fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) -> LightField {
     let mut fs_ = Vec::new();
     let mut tris = Vec::new();
@@ -92,7 +151,7 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
             texel_base: base,
             kind: i % 3,
             specular: if i % 3 == 0 { 0.0 } else { 0.5 },
-            _pad: 0,
+            material: i % 3,
         });
         base += 2 * w * h;
         tris.push(BakeTriangle {
@@ -112,10 +171,17 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
             _pad1: 0,
         });
     }
-    let radiance = Radiance::from_f32(&synthetic_values(base, seed), enc).unwrap();
+    let irradiance = Radiance::from_f32(&synthetic_values(base, seed), enc).unwrap();
     let params = BakeParams {
         directions: 21,
         iterations: Iterations::Fixed(3),
+        final_gather: Some(GatherParams {
+            texel_scale: 0.5,
+            indirect_texel_scale: 2.0,
+            light_samples: 64,
+            direct_rays: 16,
+            indirect_rays: 256,
+        }),
         ..BakeParams::paper()
     };
     LightField {
@@ -138,7 +204,7 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
             emissive_triangles: 2,
             cameras: 2,
             suns: 0,
-            textures: 0,
+            textures: 2,
             bounds_min: [-4.0, -4.0, -4.0],
             bounds_max: [4.0, 4.0, 4.0],
             warnings: 0,
@@ -163,9 +229,10 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
                 zfar: Some(100.0),
             },
         ],
+        shading: synthetic_shading(tris.len(), seed),
         triangles: tris,
         faces: fs_,
-        radiance,
+        irradiance,
         tiles: None,
         stats: BakeStats {
             iterations: 3,
@@ -190,11 +257,11 @@ fn small_in(enc: RadianceEncoding) -> LightField {
     synthetic_in(3, 20, 30, 7, enc)
 }
 
-/// What reading back a file of `lf` written as `enc` must give: the radiance re-encoded when
-/// `lf` holds another encoding, else `lf` itself.
+/// What reading back a file of `lf` written as `enc` must give: the irradiance and tiles
+/// re-encoded when `lf` holds another encoding (textures stay f16), else `lf` itself.
 fn expected(lf: &LightField, enc: RadianceEncoding) -> LightField {
     let mut e = lf.clone();
-    e.radiance = lf.radiance.to_encoding(enc);
+    e.irradiance = lf.irradiance.to_encoding(enc);
     if let Some(t) = e.tiles.as_mut() {
         t.radiance = t.radiance.to_encoding(enc);
     }
@@ -203,14 +270,30 @@ fn expected(lf: &LightField, enc: RadianceEncoding) -> LightField {
 
 fn assert_bit_exact(a: &LightField, b: &LightField) {
     assert_eq!(a, b);
-    assert_eq!(a.radiance.encoding(), b.radiance.encoding());
+    assert_eq!(a.irradiance.encoding(), b.irradiance.encoding());
     assert!(
-        a.radiance.as_bytes() == b.radiance.as_bytes(),
-        "radiance differs bitwise"
+        a.irradiance.as_bytes() == b.irradiance.as_bytes(),
+        "irradiance differs bitwise"
     );
-    let bits =
-        |l: &LightField| -> Vec<u32> { l.radiance.iter().flatten().map(|x| x.to_bits()).collect() };
-    assert!(bits(a) == bits(b), "decoded radiance differs bitwise");
+    assert!(
+        a.shading.texels.as_bytes() == b.shading.texels.as_bytes(),
+        "texels differ bitwise"
+    );
+    let bits = |l: &LightField| -> Vec<u32> {
+        let floats = l.shading.materials.iter().flat_map(|m| {
+            m.base_color
+                .into_iter()
+                .chain(m.emission)
+                .chain([m.diffuse_weight])
+        });
+        let uvs = l.shading.uvs.iter().flatten().flatten().copied();
+        (l.irradiance.iter().flatten())
+            .chain(floats)
+            .chain(uvs)
+            .map(|x| x.to_bits())
+            .collect()
+    };
+    assert!(bits(a) == bits(b), "decoded values differ bitwise");
 }
 
 fn bytes_of(lf: &LightField, enc: RadianceEncoding) -> Vec<u8> {
@@ -281,24 +364,30 @@ fn round_trip_is_bit_exact_for_both_encodings() {
         let file = fs::read(&path).unwrap();
         assert_eq!(file, bytes_of(&lf, enc), "deterministic bytes");
         let h = header_of(&file);
-        let s = h.sections.iter().find(|s| s.name == "radiance").unwrap();
+        let section = |name: &str| {
+            let s = h.sections.iter().find(|s| s.name == name).unwrap();
+            &file[s.offset as usize..(s.offset + s.byte_len) as usize]
+        };
         assert_eq!(
-            &file[s.offset as usize..(s.offset + s.byte_len) as usize],
-            lf.radiance.as_bytes(),
+            section("irradiance"),
+            lf.irradiance.as_bytes(),
             "the section holds the in-memory bytes"
         );
+        assert_eq!(section("texels"), lf.shading.texels.as_bytes());
         // Writing what was read gives the same file.
         assert_eq!(bytes_of(&back, enc), file);
         // The stored values are the f32 values quantised by the encoding.
         let want = enc.quantize(&synthetic_values(3600, 7)).unwrap();
-        assert_eq!(back.radiance.to_f32(), want);
+        assert_eq!(back.irradiance.to_f32(), want);
         for (i, v) in want.iter().enumerate() {
-            assert_eq!(back.radiance.get(i), [v[0], v[1], v[2]]);
+            assert_eq!(back.irradiance.get(i), [v[0], v[1], v[2]]);
         }
-        // Written in the other encoding: re-encoded, and read back as such.
+        // Written in the other encoding: re-encoded, and read back as such; the textures stay
+        // f16 whatever the encoding.
         for other in RadianceEncoding::ALL {
             let back = format::read_bytes(&bytes_of(&lf, other), &path).unwrap();
-            assert_eq!(back.radiance.encoding(), other);
+            assert_eq!(back.irradiance.encoding(), other);
+            assert_eq!(back.shading.texels.encoding(), RadianceEncoding::RgbF16);
             assert_bit_exact(&back, &expected(&lf, other));
         }
     }
@@ -315,15 +404,17 @@ fn round_trip_is_bit_exact_for_both_encodings() {
 
 #[test]
 fn round_trip_of_edge_cases() {
-    // No geometry at all, and a field whose radiance spans several checksum blocks and the
-    // multi-threaded path (> 4 MiB encoded).
+    // No geometry, materials or textures at all, and a field whose irradiance spans several
+    // checksum blocks and the multi-threaded path (> 4 MiB encoded).
     let mut empty = small();
     empty.triangles.clear();
     empty.faces.clear();
     empty.cameras.clear();
+    empty.shading = Shading::empty();
+    empty.params.final_gather = None;
     empty.stats = BakeStats::default();
     for enc in RadianceEncoding::ALL {
-        empty.radiance = Radiance::new(enc);
+        empty.irradiance = Radiance::new(enc);
         let back = format::read_bytes(&bytes_of(&empty, enc), Path::new("e.vlf")).unwrap();
         assert_bit_exact(&back, &empty);
     }
@@ -336,7 +427,7 @@ fn round_trip_of_edge_cases() {
         let back = format::read(&path).unwrap();
         assert_bit_exact(&back, &big);
         assert_eq!(
-            back.radiance.to_f32(),
+            back.irradiance.to_f32(),
             enc.quantize(&synthetic_values(2 * 2 * 512 * 600, 3))
                 .unwrap()
         );
@@ -344,7 +435,7 @@ fn round_trip_of_edge_cases() {
         let mut f = fs::read(&path).unwrap();
         let n = f.len();
         f[n - 10] ^= 4;
-        assert_msg(&f, "checksum mismatch in radiance");
+        assert_msg(&f, "checksum mismatch in irradiance");
     }
 }
 
@@ -363,23 +454,43 @@ fn describe_reads_the_header_only() {
     assert_eq!(info.stats, lf.stats);
     assert_eq!(info.cameras, ["front", "camera 1"]);
     let names: Vec<&str> = info.sections.iter().map(|s| s.name.as_str()).collect();
-    assert_eq!(names, ["triangles", "faces", "radiance"]);
-    assert_eq!(info.memory.radiance_file_bytes, 3600 * 6);
-    assert_eq!(info.memory.radiance_f32_bytes, 3600 * 16);
-    assert_eq!(info.memory.geometry_bytes, 6 * 48 + 3 * 80);
-    // The radiance stays in its stored encoding once loaded.
-    assert_eq!(info.memory.loaded_bytes, 3600 * 6 + 6 * 48 + 3 * 80);
     assert_eq!(
-        format::read(&path).unwrap().radiance_bytes() as u64,
-        info.memory.radiance_file_bytes
+        names,
+        [
+            "triangles",
+            "faces",
+            "materials",
+            "uvs",
+            "textures",
+            "texels",
+            "irradiance"
+        ]
     );
+    assert_eq!(
+        (info.materials, info.textures, info.texture_texels),
+        (3, 2, 19)
+    );
+    assert_eq!(info.memory.light_file_bytes, 3600 * 6);
+    assert_eq!(info.memory.light_f32_bytes, 3600 * 16);
+    assert_eq!(info.memory.geometry_bytes, 6 * 48 + 3 * 80);
+    let shading = 3 * 40 + 6 * 24 + 2 * 16 + 19 * 6;
+    assert_eq!(info.memory.shading_bytes, shading);
+    // Light and texels stay in their stored encoding once loaded.
+    assert_eq!(
+        info.memory.loaded_bytes,
+        3600 * 6 + 6 * 48 + 3 * 80 + shading
+    );
+    let back = format::read(&path).unwrap();
+    assert_eq!(back.light_bytes() as u64, info.memory.light_file_bytes);
+    assert_eq!(back.shading.texels.byte_len(), 19 * 6);
     let text = info.to_string();
     for needle in [
         "d.vlf",
         "version 2",
-        "rgb16f",
-        "radiance",
+        "irradiance in rgb16f; 3 materials, 2 textures (19 texels, f16 RGB)",
+        "final gather  texel scale 0.5, indirect texel scale 2; 64 light samples, 16 direct rays, 256 indirect rays",
         "6 triangles, 3 faces",
+        "shading 410 B",
         "propagate",
     ] {
         assert!(text.contains(needle), "{needle:?} missing from\n{text}");
@@ -444,6 +555,7 @@ fn rejects_unsupported_versions() {
         let want =
             format!("unsupported .vlf format version {v} (this build reads version 2 only{why}): ");
         assert!(msg.starts_with(&want), "{msg}");
+        assert!(format::describe_bytes(&g, Path::new("x.vlf")).is_err());
     }
 }
 
@@ -567,8 +679,8 @@ fn rejects_inconsistent_section_tables() {
             "overlap section triangles".into(),
         ),
         (
-            Box::new(|h| entry(h, "radiance").offset += 1 << 20),
-            "section radiance: bytes".into(),
+            Box::new(|h| entry(h, "irradiance").offset += 1 << 20),
+            "section irradiance: bytes".into(),
         ),
         (
             Box::new(|h| entry(h, "faces").offset = 16),
@@ -577,7 +689,7 @@ fn rejects_inconsistent_section_tables() {
         (
             // Absurd but self-consistent sizes: rejected against the file size, no allocation.
             Box::new(|h| {
-                let r = entry(h, "radiance");
+                let r = entry(h, "irradiance");
                 r.count = 1 << 40;
                 r.byte_len = 4 << 40;
             }),
@@ -606,6 +718,12 @@ fn rejects_inconsistent_section_tables() {
         ),
         (
             Box::new(|h| {
+                h.sections.retain(|s| s.name != "textures");
+            }),
+            "section textures: missing from the section table".into(),
+        ),
+        (
+            Box::new(|h| {
                 let dup = h.sections[0].clone();
                 h.sections.push(dup);
             }),
@@ -613,7 +731,24 @@ fn rejects_inconsistent_section_tables() {
         ),
         (
             Box::new(|h| h.texels += 1),
-            "section radiance: 3600 texels, but the header says 3601".into(),
+            "section irradiance: 3600 texels, but the header says 3601".into(),
+        ),
+        (
+            Box::new(|h| {
+                let u = entry(h, "uvs");
+                u.count -= 1;
+                u.byte_len -= 24;
+            }),
+            "section uvs: 5 uv triples for 6 triangles".into(),
+        ),
+        (
+            Box::new(|h| entry(h, "texels").elem_size = 8),
+            "section texels: kind 8 with 8-byte elements, expected kind 8 with 6-byte elements"
+                .into(),
+        ),
+        (
+            Box::new(|h| entry(h, "materials").kind = 3),
+            "section materials: kind 3 with 40-byte elements, expected kind 5".into(),
         ),
         (
             Box::new(|h| {
@@ -668,8 +803,10 @@ fn rejects_inconsistent_content() {
     let g = patch_section(&f, "faces", face_field(2, 16, 3000));
     assert_msg(
         &g,
-        "face 2: texels 3000..4200 lie beyond the radiance array (3600 texels): ",
+        "face 2: texels 3000..4200 lie beyond the irradiance array (3600 texels): ",
     );
+    let g = patch_section(&f, "faces", face_field(1, 19, 3)); // material
+    assert_msg(&g, "face 1: material 3 is out of range (3 materials): ");
     let g = patch_section(&f, "faces", face_field(1, 15, 0)); // height
     assert_msg(&g, "face 1: empty chart (20 × 0 texels)");
     let g = patch_section(&f, "faces", face_field(0, 17, 9)); // kind
@@ -686,22 +823,109 @@ fn rejects_inconsistent_content() {
         b[4 * 9..4 * 10].copy_from_slice(&f32::INFINITY.to_bits().to_le_bytes());
     });
     assert_msg(&g, "triangle 0: non-finite vertex coordinate");
-    // Half-float radiance that no writer produces.
-    let g = patch_section(&f, "radiance", |b| {
+    // Half-float irradiance and texels that no writer produces.
+    let g = patch_section(&f, "irradiance", |b| {
         b[6 * 7 + 2..6 * 7 + 4].copy_from_slice(&[0, 0x7C])
     });
     assert_msg(
         &g,
-        "radiance texel 7: not a stored rgb16f value (negative, infinite or NaN)",
+        "irradiance texel 7: not a stored rgb16f value (negative, infinite or NaN)",
     );
-    let g = patch_section(&f, "radiance", |b| b[6 * 9 + 1] |= 0x80);
-    assert_msg(&g, "radiance texel 9: not a stored rgb16f value");
+    let g = patch_section(&f, "irradiance", |b| b[6 * 9 + 1] |= 0x80);
+    assert_msg(&g, "irradiance texel 9: not a stored rgb16f value");
+    let g = patch_section(&f, "texels", |b| b[6 * 4 + 3] = 0xFE); // NaN
+    assert_msg(&g, "texture texel 4: not a stored rgb16f value");
     // Also in a late block of a large section, checked on another thread.
     let big = synthetic(2, 512, 600, 3);
-    let g = patch_section(&bytes_of(&big, RadianceEncoding::RgbF16), "radiance", |b| {
-        b[6 * 1_200_001 + 5] = 0xFC; // -inf
-    });
-    assert_msg(&g, "radiance texel 1200001: not a stored rgb16f value");
+    let g = patch_section(
+        &bytes_of(&big, RadianceEncoding::RgbF16),
+        "irradiance",
+        |b| {
+            b[6 * 1_200_001 + 5] = 0xFC; // -inf
+        },
+    );
+    assert_msg(&g, "irradiance texel 1200001: not a stored rgb16f value");
+    // Materials (10 words: base colour, diffuse weight, emission, texture indices).
+    let word = |i: usize, size: usize, w: usize, value: u32| {
+        move |b: &mut [u8]| {
+            let at = i * size + 4 * w;
+            b[at..at + 4].copy_from_slice(&value.to_le_bytes());
+        }
+    };
+    let mat = |i, w, value| {
+        patch_section(
+            &f,
+            "materials",
+            word(i, size_of::<FileMaterial>(), w, value),
+        )
+    };
+    assert_msg(
+        &mat(0, 7, 2),
+        "material 0: base-colour texture 2 is out of range (2 textures): ",
+    );
+    assert_msg(
+        &mat(2, 8, 5),
+        "material 2: emissive texture 5 is out of range (2 textures)",
+    );
+    assert_msg(
+        &mat(1, 4, (-1.0f32).to_bits()),
+        "material 1: colour factors must be finite and non-negative",
+    );
+    assert_msg(
+        &mat(1, 2, f32::NAN.to_bits()),
+        "material 1: colour factors must be finite and non-negative",
+    );
+    assert_msg(
+        &mat(0, 3, 1.5f32.to_bits()),
+        "material 0: diffuse weight 1.5 is not in [0, 1]",
+    );
+    // Uvs (6 floats per triangle) and textures (width, height, wrap_s, wrap_t).
+    let g = patch_section(
+        &f,
+        "uvs",
+        word(4, size_of::<FileUvs>(), 3, f32::INFINITY.to_bits()),
+    );
+    assert_msg(&g, "uvs of triangle 4: non-finite value");
+    let tex =
+        |i, w, value| patch_section(&f, "textures", word(i, size_of::<FileTexture>(), w, value));
+    assert_msg(
+        &tex(1, 3, 7),
+        "texture 1: unknown wrap mode 7 (0 repeat, 1 clamp to edge, 2 mirrored repeat)",
+    );
+    assert_msg(
+        &tex(0, 0, 0),
+        "texture 0: size 0 × 3 is outside 1..=65536 per side",
+    );
+    assert_msg(
+        &tex(1, 1, 70_000),
+        "texture 1: size 2 × 70000 is outside 1..=65536 per side",
+    );
+    assert_msg(
+        &tex(0, 1, 2),
+        "textures: 2 textures need 14 texels, but there are 19",
+    );
+    // Final-gather settings.
+    let g = disk::rewrite_header(&f, |h| {
+        h.params.final_gather.as_mut().unwrap().indirect_texel_scale = 0.001
+    })
+    .unwrap();
+    assert_msg(
+        &g,
+        "parameters: gather indirect_texel_scale = 0.001 is out of range (0.01..=64): ",
+    );
+    let g = disk::rewrite_header(&f, |h| {
+        h.params.final_gather.as_mut().unwrap().texel_scale = f32::NAN
+    })
+    .unwrap();
+    assert_msg(&g, "parameters: gather texel_scale = NaN is out of range");
+    let g = disk::rewrite_header(&f, |h| {
+        h.params.final_gather.as_mut().unwrap().indirect_rays = 1 << 20
+    })
+    .unwrap();
+    assert_msg(
+        &g,
+        "parameters: gather indirect_rays = 1048576 is out of range",
+    );
     // Header content.
     let g = disk::rewrite_header(&f, |h| h.params.resolution = 0).unwrap();
     assert_msg(
@@ -764,9 +988,24 @@ fn writer_rejects_unstorable_fields_before_touching_the_disk() {
     lf.faces[1].texel_base = 3590;
     let e = format::write_atomic(&path, &lf).unwrap_err().to_string();
     assert!(
-        e.starts_with("face 1: texels 3590..4790 lie beyond the radiance array"),
+        e.starts_with("face 1: texels 3590..4790 lie beyond the irradiance array"),
         "{e}"
     );
+    // Shading that does not fit the geometry, or textures stored in another encoding.
+    let mut lf = small();
+    lf.shading.uvs.pop();
+    let e = format::write_atomic(&path, &lf).unwrap_err().to_string();
+    assert!(e.starts_with("uvs: 5 uv triples for 6 triangles: "), "{e}");
+    let mut lf = small();
+    lf.shading.texels = lf.shading.texels.to_encoding(RadianceEncoding::Rgb9e5);
+    let e = format::write_atomic(&path, &lf).unwrap_err().to_string();
+    assert!(
+        e.starts_with("texels: stored as rgb9e5, not rgb16f: "),
+        "{e}"
+    );
+    let mut lf = small();
+    lf.faces[0].material = 3;
+    assert!(format::write_atomic(&path, &lf).is_err());
     let mut lf = small();
     lf.triangles[0].face = 7;
     assert!(format::write_atomic(&path, &lf).is_err());
@@ -864,6 +1103,19 @@ fn on_disk_struct_layout_is_pinned() {
     assert_eq!(offset_of!(FileFace, texel_base), 64);
     assert_eq!(offset_of!(FileFace, kind), 68);
     assert_eq!(offset_of!(FileFace, specular), 72);
+    assert_eq!(offset_of!(FileFace, material), 76);
+    assert_eq!(size_of::<FileMaterial>(), 40);
+    assert_eq!(offset_of!(FileMaterial, diffuse_weight), 12);
+    assert_eq!(offset_of!(FileMaterial, emission), 16);
+    assert_eq!(offset_of!(FileMaterial, base_color_texture), 28);
+    assert_eq!(offset_of!(FileMaterial, emissive_texture), 32);
+    assert_eq!(size_of::<FileUvs>(), 24);
+    assert_eq!(size_of::<FileTexture>(), 16);
+    assert_eq!(offset_of!(FileTexture, wrap_s), 8);
+    assert_eq!(disk::TEXEL_BYTES, 6);
+    assert_eq!(WrapMode::ALL.map(WrapMode::id), [0, 1, 2]);
+    assert_eq!(WrapMode::from_id(2), Some(WrapMode::MirroredRepeat));
+    assert_eq!(WrapMode::from_id(3), None);
     assert_eq!(RadianceEncoding::Rgb9e5.bytes_per_texel(), 4);
     assert_eq!(RadianceEncoding::RgbF16.bytes_per_texel(), 6);
     assert_eq!(
@@ -878,7 +1130,13 @@ fn tiny() -> LightField {
     lf.cameras.clear();
     lf.scene.source = "t".into();
     lf.stats = BakeStats::default();
-    lf.radiance = Radiance::from_f32(&[[1.0, 0.5, 0.25, 0.0], [0.0; 4]], DEFAULT_ENCODING).unwrap();
+    lf.params.final_gather = None;
+    lf.shading.materials.truncate(1);
+    lf.shading.materials[0].base_color_texture = NO_TEXTURE;
+    lf.shading.textures.clear();
+    lf.shading.texels = Radiance::new(RadianceEncoding::RgbF16);
+    lf.irradiance =
+        Radiance::from_f32(&[[1.0, 0.5, 0.25, 0.0], [0.0; 4]], DEFAULT_ENCODING).unwrap();
     lf
 }
 
@@ -902,7 +1160,7 @@ fn golden_bytes_of_a_tiny_file() {
     // perturb = 0, seed = 0x5eed0001 (varint 0xfc + u32), no final gather (0), direction
     // scheme 1, frequency 2, count 21, transform centre (0.25, -1, 3.5), scale 0.125.
     assert_eq!(hex(&f[32..80]), GOLDEN_HEADER_32_80);
-    // The radiance texel (1, 0.5, 0.25) in RGB9E5 is 256 | 128 << 9 | 64 << 18 | 16 << 27,
+    // The irradiance texel (1, 0.5, 0.25) in RGB9E5 is 256 | 128 << 9 | 64 << 18 | 16 << 27,
     // the last section, at the end of the file.
     let n = f.len();
     assert_eq!(hex(&f[n - 8..]), "00 01 01 81 00 00 00 00");
@@ -910,9 +1168,9 @@ fn golden_bytes_of_a_tiny_file() {
     assert_eq!(n, GOLDEN_LEN);
 }
 
-const GOLDEN_LEN: usize = 440;
-const GOLDEN_PREAMBLE_8_24: &str = "02 00 00 00 d3 00 00 00 b8 01 00 00 00 00 00 00";
-const GOLDEN_HEADER_CHECKSUM: &str = "c5 a5 0b 89 8b 4b 33 1a";
+const GOLDEN_LEN: usize = 632;
+const GOLDEN_PREAMBLE_8_24: &str = "02 00 00 00 37 01 00 00 78 02 00 00 00 00 00 00";
+const GOLDEN_HEADER_CHECKSUM: &str = "7e c2 71 25 55 33 e8 38";
 const GOLDEN_HEADER_32_80: &str = "15 40 08 00 00 80 3f 00 03 00 00 00 00 00 00 00 00 00 00 00 00 00 fc 01 00 ed 5e 00 01 02 15 00 00 80 3e 00 00 80 bf 00 00 60 40 00 00 00 3e 01";
 
 // ----- encoding measurements ----------------------------------------------------------------
@@ -1059,9 +1317,9 @@ fn datasets() -> Vec<(&'static str, Vec<[f32; 4]>)> {
         };
         let prep = vlf_core::bake::BakeScene::new(&scene, &params).unwrap();
         let set = DirectionSet::at_least(params.directions).unwrap();
-        let mut radiance = vlf_core::bake::reference::propagate(&prep, &set, &params).radiance;
-        vlf_core::bake::dilate(&prep, &mut radiance);
-        sets.push(("baked scene", radiance));
+        let mut irradiance = vlf_core::bake::reference::propagate(&prep, &set, &params).irradiance;
+        vlf_core::bake::dilate(&prep, &mut irradiance);
+        sets.push(("baked scene", irradiance));
     }
     sets
 }

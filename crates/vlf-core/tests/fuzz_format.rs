@@ -1,7 +1,7 @@
 //! Mutation fuzzer for the `.vlf` reader on the stable toolchain (no cargo-fuzz).
 //!
-//! Seeds: a few small valid files (both radiance encodings, with and without geometry and
-//! cameras). Each iteration applies 1–3 deterministic xorshift mutations: bit flips, byte
+//! Seeds: a few small valid files (both radiance encodings, with and without geometry,
+//! cameras, textures and final-gather settings). Each iteration applies 1–3 deterministic xorshift mutations: bit flips, byte
 //! overwrites, truncation, appended bytes, preamble length-field edits (with a recomputed or a
 //! stale header checksum), section-table and header-field edits (re-encoded, with a recomputed
 //! or a stale header checksum), and section-data edits (with recomputed or stale section
@@ -22,10 +22,10 @@ use vlf_core::format;
 use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEntry};
 use vlf_core::hash;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, LightField, Radiance,
-    RadianceEncoding,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, LightField,
+    NO_TEXTURE, Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
 };
-use vlf_core::scene::{Camera, SceneSummary, Similarity};
+use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
 
 /// xorshift64* — deterministic, dependency-free.
 struct Rng(u64);
@@ -77,7 +77,58 @@ impl Rng {
 
 // ----- seeds --------------------------------------------------------------------------------
 
-fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField {
+/// Two materials (the second emissive), with `textures` textures (0–2) in their slots.
+fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
+    let tex = |i: usize| if i < textures { i as u32 } else { NO_TEXTURE };
+    let sizes = [
+        (3u32, 2u32, WrapMode::ClampToEdge),
+        (4, 4, WrapMode::MirroredRepeat),
+    ];
+    let texels: Vec<[f32; 4]> = sizes[..textures]
+        .iter()
+        .flat_map(|&(w, h, _)| 0..w * h)
+        .map(|_| [rng.unit(), rng.unit(), rng.unit(), 0.0])
+        .collect();
+    Shading {
+        materials: vec![
+            SurfaceMaterial {
+                base_color: [0.8, 0.5, 0.2],
+                diffuse_weight: 1.0,
+                emission: [0.0; 3],
+                base_color_texture: tex(0),
+                emissive_texture: NO_TEXTURE,
+            },
+            SurfaceMaterial {
+                base_color: [0.3; 3],
+                diffuse_weight: 0.5,
+                emission: [4.0, 3.0, 2.0],
+                base_color_texture: NO_TEXTURE,
+                emissive_texture: tex(1),
+            },
+        ],
+        uvs: (0..triangles)
+            .map(|_| {
+                [
+                    [rng.unit(), rng.unit()],
+                    [rng.unit() * 3.0, -rng.unit()],
+                    [0.5, 0.25],
+                ]
+            })
+            .collect(),
+        textures: sizes[..textures]
+            .iter()
+            .map(|&(width, height, wrap)| SurfaceTexture {
+                width,
+                height,
+                wrap_s: wrap,
+                wrap_t: WrapMode::Repeat,
+            })
+            .collect(),
+        texels: Radiance::from_f32(&texels, RadianceEncoding::RgbF16).unwrap(),
+    }
+}
+
+fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut Rng) -> LightField {
     let mut fs = Vec::new();
     let mut tris = Vec::new();
     let mut base = 0;
@@ -95,7 +146,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
             texel_base: base,
             kind: i % 3,
             specular: 0.0,
-            _pad: 0,
+            material: i % 2,
         });
         base += 2 * w * h;
         for k in 0..2 {
@@ -126,6 +177,13 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
     };
     let params = BakeParams {
         directions: 6,
+        final_gather: (textures > 0).then_some(GatherParams {
+            texel_scale: 0.5,
+            indirect_texel_scale: 1.0,
+            light_samples: 16,
+            direct_rays: 4,
+            indirect_rays: 64,
+        }),
         ..BakeParams::paper()
     };
     LightField {
@@ -151,9 +209,10 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, rng: &mut Rng) -> LightField
             warnings: 0,
         },
         cameras: if cameras { vec![camera] } else { vec![] },
+        shading: shading(tris.len(), textures, rng),
         triangles: tris,
         faces: fs,
-        radiance: Radiance::from_f32(&radiance, DEFAULT_ENCODING).unwrap(),
+        irradiance: Radiance::from_f32(&radiance, DEFAULT_ENCODING).unwrap(),
         tiles: None,
         stats: BakeStats {
             iterations: 2,
@@ -170,16 +229,26 @@ fn seeds() -> Vec<Vec<u8>> {
     let mut rng = Rng(0xfeed);
     let p = Path::new("seed.vlf");
     vec![
-        format::to_bytes(&field(3, 6, 5, true, &mut rng), RadianceEncoding::RgbF16, p).unwrap(),
         format::to_bytes(
-            &field(2, 4, 4, false, &mut rng),
+            &field(3, 6, 5, true, 2, &mut rng),
+            RadianceEncoding::RgbF16,
+            p,
+        )
+        .unwrap(),
+        format::to_bytes(
+            &field(2, 4, 4, false, 1, &mut rng),
             RadianceEncoding::Rgb9e5,
             p,
         )
         .unwrap(),
-        format::to_bytes(&field(0, 1, 1, true, &mut rng), RadianceEncoding::RgbF16, p).unwrap(),
         format::to_bytes(
-            &field(1, 1, 1, false, &mut rng),
+            &field(0, 1, 1, true, 0, &mut rng),
+            RadianceEncoding::RgbF16,
+            p,
+        )
+        .unwrap(),
+        format::to_bytes(
+            &field(1, 1, 1, false, 0, &mut rng),
             RadianceEncoding::Rgb9e5,
             p,
         )
@@ -303,12 +372,27 @@ fn edit_header(rng: &mut Rng, h: &mut FileHeader) -> String {
             format!("directions {:?}", h.directions)
         }
         13 => {
-            match rng.below(5) {
+            match rng.below(7) {
                 0 => h.params.resolution = rng.interesting_u32(h.params.resolution),
                 1 => h.params.tile = rng.interesting_u32(h.params.tile),
                 2 => h.params.texel_scale = f32::from_bits(rng.interesting_u32(0)),
                 3 => h.params.sky[rng.below(3)] = f32::from_bits(rng.interesting_u32(0)),
-                _ => h.params.perturb = rng.interesting_u32(h.params.perturb),
+                4 => h.params.perturb = rng.interesting_u32(h.params.perturb),
+                5 => h.params.final_gather = None,
+                _ => {
+                    let g = h.params.final_gather.get_or_insert(disk::FileGather {
+                        texel_scale: 1.0,
+                        indirect_texel_scale: 1.0,
+                        light_samples: 1,
+                        direct_rays: 1,
+                        indirect_rays: 1,
+                    });
+                    match rng.below(3) {
+                        0 => g.texel_scale = f32::from_bits(rng.interesting_u32(0)),
+                        1 => g.indirect_texel_scale = f32::from_bits(rng.interesting_u32(0)),
+                        _ => g.indirect_rays = rng.interesting_u32(g.indirect_rays),
+                    }
+                }
             }
             format!("params {:?}", h.params)
         }

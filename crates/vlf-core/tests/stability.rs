@@ -37,19 +37,34 @@ fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParam
     }
 }
 
-fn bake(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet, Propagated) {
+/// A propagation and its texels' outgoing radiance (`BakeScene::outgoing_radiance` of its
+/// irradiance: emission + ρE/π), which most checks here are about.
+struct Baked {
+    out: Propagated,
+    radiance: Vec<[f32; 4]>,
+}
+
+impl std::ops::Deref for Baked {
+    type Target = Propagated;
+    fn deref(&self) -> &Propagated {
+        &self.out
+    }
+}
+
+fn bake(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet, Baked) {
     let prep = BakeScene::new(scene, params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, params);
-    (prep, set, out)
+    let radiance = prep.outgoing_radiance(&out.irradiance);
+    (prep, set, Baked { out, radiance })
 }
 
-/// Every radiance value finite and non-negative, every energy term finite and non-negative.
-fn assert_sane(out: &Propagated, what: &str) {
-    for (t, l) in out.radiance.iter().enumerate() {
+/// Every irradiance value finite and non-negative, every energy term finite and non-negative.
+fn assert_sane(out: &Baked, what: &str) {
+    for (t, l) in out.irradiance.iter().enumerate() {
         assert!(
             l.iter().all(|x| x.is_finite() && *x >= 0.0),
-            "{what}: texel {t} has radiance {l:?}"
+            "{what}: texel {t} has irradiance {l:?}"
         );
     }
     let e = &out.energy;
@@ -164,7 +179,7 @@ fn ff_polygon(p: DVec3, n: DVec3, poly: &[DVec3]) -> f64 {
 /// Per-texel relative errors of the red channel against `want(p)`: (mean, max, error of the
 /// sum over the texels).
 fn texel_errors(
-    out: &Propagated,
+    out: &Baked,
     texels: &[(usize, DVec3)],
     want: impl Fn(DVec3) -> f64,
 ) -> (f64, f64, f64) {
@@ -596,7 +611,7 @@ fn split_room_scene(gap: f32, needles: bool) -> Scene {
 }
 
 /// Max radiance over the dark half (both sides of its faces) and the wall's dark side.
-fn split_room_dark(scene: &Scene, prep: &BakeScene, out: &Propagated) -> f32 {
+fn split_room_dark(scene: &Scene, prep: &BakeScene, out: &Baked) -> f32 {
     let mut dark = 0.0f32;
     for (fi, f) in scene.faces.iter().enumerate() {
         let sides: &[usize] = match scene.materials[f.material as usize].name.as_str() {
@@ -912,8 +927,8 @@ fn coplanar_decal_is_deterministic_and_balanced() {
     let (prep, set, a) = bake(&scene, &p);
     let (_, _, b) = bake(&scene, &p);
     assert_sane(&a, "decal");
-    let bits = |o: &Propagated| -> Vec<u32> {
-        o.radiance
+    let bits = |o: &Baked| -> Vec<u32> {
+        o.irradiance
             .iter()
             .flat_map(|l| l.map(f32::to_bits))
             .collect()

@@ -320,7 +320,7 @@ pub fn registry() -> Vec<SharedStruct> {
         shared!(BakeTriangle in "common/bake_scene.wgsl" { p0, face, p1, _pad0, p2, _pad1 }),
         shared!(BakeFace in "common/bake_scene.wgsl" {
             normal, offset, origin, texel_size, u, width, v, height, texel_base, kind, specular,
-            _pad,
+            material,
         }),
         shared!(CellEntry in "common/bake_rays.wgsl" { depth, face }),
         shared!(Crossing in "common/bake_rays.wgsl" { below, above }),

@@ -68,6 +68,8 @@ pub static COMMON_HASH: Shader = shader!("common/hash.wgsl");
 pub static COMMON_RAYS: Shader = shader!("common/rays.wgsl");
 /// The BVH, its bindings and its traversal.
 pub static COMMON_BVH: Shader = shader!("common/bvh.wgsl");
+/// Texture wrap modes and the bilinear footprint (path tracer, pass 5).
+pub static COMMON_TEXTURE: Shader = shader!("common/texture.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -95,6 +97,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_HASH,
     &COMMON_RAYS,
     &COMMON_BVH,
+    &COMMON_TEXTURE,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

@@ -505,6 +505,7 @@ struct Stats {
     size: (u32, u32),
     lf_bytes: u64,
     radiance_bytes: u64,
+    texture_bytes: u64,
     target_bytes: u64,
 }
 
@@ -528,6 +529,7 @@ impl Stats {
             size: (g.config.width, g.config.height),
             lf_bytes: g.renderer.light_field_bytes(),
             radiance_bytes: g.renderer.radiance_bytes(),
+            texture_bytes: g.renderer.texture_bytes(),
             target_bytes: g.renderer.target_bytes(),
         }
     }
@@ -578,13 +580,18 @@ fn panel(
             });
             ui.collapsing("Light field", |ui| {
                 ui.label(format!(
-                    "{} faces, {} triangles, {} texels",
+                    "{} faces, {} triangles, {} atlas texels",
                     lf.faces.len(),
                     lf.triangles.len(),
-                    lf.radiance.len()
+                    lf.irradiance.len()
                 ));
                 ui.label(format!("{} directions", lf.directions.len()));
-                ui.label(format!("radiance atlas: {}", mib(stats.radiance_bytes)));
+                ui.label(format!("irradiance atlas: {}", mib(stats.radiance_bytes)));
+                ui.label(format!(
+                    "{} textures: {}",
+                    lf.shading.textures.len(),
+                    mib(stats.texture_bytes)
+                ));
                 ui.label(format!(
                     "on the GPU: {} (+ {} targets)",
                     mib(stats.lf_bytes),

@@ -103,12 +103,15 @@ pub fn gpu_tonemap(t: Tonemap) -> vlf_gpu::render::Tonemap {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let lf = load(&cli)?;
     log::info!(
-        "light field: {} faces, {} triangles, {} texels, {} directions, {:.1} MiB radiance",
+        "light field: {} faces, {} triangles, {} atlas texels, {} directions, {:.1} MiB light, \
+         {} textures ({:.1} MiB)",
         lf.faces.len(),
         lf.triangles.len(),
-        lf.radiance.len(),
+        lf.irradiance.len(),
         lf.directions.len(),
-        lf.radiance_bytes() as f64 / (1 << 20) as f64
+        lf.light_bytes() as f64 / (1 << 20) as f64,
+        lf.shading.textures.len(),
+        lf.shading.texels.byte_len() as f64 / (1 << 20) as f64
     );
     let camera = match (cli.look_from, cli.look_at) {
         (Some(from), Some(at)) => {

@@ -192,7 +192,13 @@ pub fn plan_prepared(
             52,
             1,
         ),
-        item("texel radiance (unshot, next, total)", "host", x, 16, 3),
+        item(
+            "texel radiance (unshot, next) and irradiance",
+            "host",
+            x,
+            16,
+            3,
+        ),
     ]);
     if let Some(plan) = &gpu_plan {
         let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;

@@ -16,6 +16,7 @@ pub use quality::Quality;
 use crate::directions::DirectionSet;
 use crate::lightfield::{
     BakeParams, BakeStats, DEFAULT_ENCODING, LightField, MirrorTiles, ParamsError, Radiance,
+    Shading,
 };
 use crate::scene::Scene;
 
@@ -26,17 +27,20 @@ pub enum BakeError {
     Params(#[from] ParamsError),
     #[error("invalid direction count: {0}")]
     Directions(#[from] crate::directions::DirectionError),
-    /// The propagated radiance holds a value no encoding can store (a bug or an overflow).
+    /// The propagated light holds a value no encoding can store (a bug or an overflow).
     #[error("{element}: {value:?} is not finite (NaN and infinity cannot be stored)")]
     NonFinite { element: String, value: [f32; 3] },
 }
 
-/// Assembles a [`LightField`] from a scene, its prepared form and the propagated radiance
-/// (shared by the CPU and GPU paths). Uncovered texels are dilated so bilinear filtering at
-/// polygon borders reads covered neighbours instead of black. The radiance (atlas and mirror
-/// tiles) is then encoded once, in the file's default encoding
-/// ([`DEFAULT_ENCODING`]): that is how the light field is kept in memory,
-/// written and rendered.
+/// Assembles a [`LightField`] from a scene, an atlas and the irradiance propagated (or
+/// gathered) on it, shared by the CPU and GPU paths, radiosity and the final gather (which
+/// hands in its own finer atlas and irradiance as `prep` and `propagated.irradiance`). The
+/// light field stores the irradiance, the atlas's faces (with their materials) and the
+/// scene's [`Shading`] (materials, uvs, textures), from which the renderer computes each
+/// pixel's radiance. Uncovered texels are dilated so bilinear filtering at polygon borders
+/// reads covered neighbours instead of black. The irradiance and the mirror tiles' radiance
+/// are then encoded once, in the file's default encoding ([`DEFAULT_ENCODING`]): that is how
+/// the light field is kept in memory, written and rendered.
 ///
 /// No encoding stores NaN or infinity. Should the propagation produce one (a bug or an
 /// overflow), this logs a warning naming the first such value and stores those components as
@@ -56,8 +60,8 @@ pub fn assemble(
     }
 }
 
-/// [`assemble`], failing with [`BakeError::NonFinite`] (naming the first value) if a
-/// propagated value is NaN or infinite.
+/// [`assemble`], failing with [`BakeError::NonFinite`] (naming the first value) if an
+/// irradiance or tile value is NaN or infinite.
 pub fn try_assemble(
     scene: &Scene,
     prep: &BakeScene,
@@ -78,9 +82,9 @@ fn assemble_impl(
     stats: BakeStats,
     strict: bool,
 ) -> Result<LightField, BakeError> {
-    let mut radiance = propagated.radiance;
-    dilate(prep, &mut radiance);
-    let radiance = encode_radiance(radiance, "radiance texel", strict)?;
+    let mut irradiance = propagated.irradiance;
+    dilate(prep, &mut irradiance);
+    let irradiance = encode_radiance(irradiance, "irradiance texel", strict)?;
     let tiles = match propagated.tiles {
         Some((index, values)) => Some(MirrorTiles {
             index,
@@ -96,7 +100,8 @@ fn assemble_impl(
         cameras: scene.cameras.clone(),
         triangles: prep.triangles.clone(),
         faces: prep.faces.clone(),
-        radiance,
+        irradiance,
+        shading: Shading::from_scene(scene),
         tiles,
         stats,
     })

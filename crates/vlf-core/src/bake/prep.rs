@@ -4,8 +4,12 @@
 //! Atlas: every face gets a chart of `width × height` square texels of edge `texel_size` laid on
 //! its plane basis, for each of its two sides (side 0 = front/normal side, side 1 = back).
 //! Texels are clipped exactly against the face's triangles: `texel_area` is the covered area
-//! (0 for texels outside the polygon) and albedo/emission are sampled at the covered part's
-//! centroid, so energy sums (Σ B·area) are exact for the polygon.
+//! (0 for texels outside the polygon), so energy sums (Σ B·area) are exact for the polygon.
+//! Albedo and emission are the material's factors; where the material has a base-colour or
+//! emissive texture they are multiplied by the texture's mean over the texel's covered part
+//! ([`TEXTURE_SAMPLES`]), not by its value at one point: a texel then absorbs and emits what
+//! its part of the surface does on average, which is what energy conservation needs when the
+//! texture is finer than the atlas.
 
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
@@ -13,7 +17,7 @@ use serde::Serialize;
 use crate::lightfield::{
     BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
 };
-use crate::scene::{MaterialKind, Scene};
+use crate::scene::{MaterialKind, Scene, Texture};
 
 /// Summary of a prepared scene (for logs and `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -98,7 +102,7 @@ impl BakeScene {
                 texel_base: texel_count as u32,
                 kind,
                 specular,
-                _pad: 0,
+                material: f.material,
             });
             texel_count += 2 * u64::from(width) * u64::from(height);
             if texel_count > u64::from(u32::MAX / 2) {
@@ -155,20 +159,35 @@ impl BakeScene {
                     }
                 }
             }
+            let base_tex = mat
+                .base_color_texture
+                .map(|t| &scene.textures[t.index as usize]);
+            let emit_tex = mat
+                .emissive_texture
+                .map(|t| &scene.textures[t.index as usize]);
+            let means = (base_tex.is_some() || emit_tex.is_some()).then(|| {
+                texture_means(scene, fi, &basis, texel_size, (w, h), [base_tex, emit_tex])
+            });
             for i in 0..w * h {
                 if area[i] <= 0.0 {
                     continue;
                 }
                 let c = centroid[i] / area[i] as f32 * texel_size;
                 let p = basis.from_chart(c);
+                // The textures' means over the covered part (at the centroid of the largest
+                // covered piece for a sliver no sample point fell on).
                 let uv = best[i].1;
+                let mean = |k: usize, tex: Option<&Texture>| match &means {
+                    Some(m) if m.weight[i] > 0.0 => m.sum[k][i] / m.weight[i],
+                    _ => tex.map_or(Vec3::ONE, |t| t.bilinear(uv).truncate()),
+                };
                 let mut base = mat.diffuse_albedo();
-                if let Some(t) = mat.base_color_texture {
-                    base *= scene.textures[t.index as usize].bilinear(uv).truncate();
+                if base_tex.is_some() {
+                    base *= mean(0, base_tex);
                 }
                 let mut emit = mat.emission;
-                if let Some(t) = mat.emissive_texture {
-                    emit *= scene.textures[t.index as usize].bilinear(uv).truncate();
+                if emit_tex.is_some() {
+                    emit *= mean(1, emit_tex);
                 }
                 let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32;
                 for side in 0..2 {
@@ -224,6 +243,24 @@ impl BakeScene {
             .fold(Vec3::ZERO, |s, x| s + x)
     }
 
+    /// Outgoing (diffuse) radiance per texel from its irradiance: `L = Le + ρ·E/π`, emission
+    /// on the front side only: what a texel sends on in the propagation, and what the renderer
+    /// shows of an untextured surface (rgb, a = 0).
+    pub fn outgoing_radiance(&self, irradiance: &[[f32; 4]]) -> Vec<[f32; 4]> {
+        irradiance
+            .iter()
+            .zip(&self.albedo)
+            .zip(&self.emission)
+            .map(|((e, rho), le)| {
+                let l = Vec4::from(*le).truncate()
+                    + Vec4::from(*rho).truncate()
+                        * Vec4::from(*e).truncate()
+                        * std::f32::consts::FRAC_1_PI;
+                l.extend(0.0).into()
+            })
+            .collect()
+    }
+
     pub fn summary(&self) -> PrepSummary {
         PrepSummary {
             triangles: self.triangles.len(),
@@ -234,6 +271,95 @@ impl BakeScene {
             non_diffuse_faces: self.faces.iter().filter(|f| f.kind != FACE_DIFFUSE).count(),
         }
     }
+}
+
+/// Sample points per texel side of the texture means: twice the texture's texels per atlas
+/// texel side (from the triangle's uv gradient), between these bounds.
+pub const TEXTURE_SAMPLES: std::ops::RangeInclusive<u32> = 4..=8;
+
+/// Per texel of one chart side: the sums of the base-colour and emissive texture values over
+/// the sample points that fall on the face, each weighted by the area it stands for, and the
+/// sum of those weights.
+struct TextureMeans {
+    sum: [Vec<Vec3>; 2],
+    weight: Vec<f32>,
+}
+
+/// The texture means of face `fi`'s texels ([`TEXTURE_SAMPLES`]): every texel a triangle's
+/// bounding box touches gets an S × S grid of points (S from that triangle's uv gradient);
+/// those inside the triangle sample the textures at their interpolated uv, weighted by the
+/// area 1/S² they stand for. A missing texture reads 1.
+fn texture_means(
+    scene: &Scene,
+    fi: usize,
+    basis: &crate::scene::PlaneBasis,
+    texel_size: f32,
+    (w, h): (usize, usize),
+    textures: [Option<&Texture>; 2],
+) -> TextureMeans {
+    let mut m = TextureMeans {
+        sum: [vec![Vec3::ZERO; w * h], vec![Vec3::ZERO; w * h]],
+        weight: vec![0.0; w * h],
+    };
+    let xf = scene.to_vlf;
+    for tri in scene.face_triangles(fi) {
+        let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
+        let (e1, e2) = (q[1] - q[0], q[2] - q[0]);
+        let det = e1.perp_dot(e2);
+        if det.abs() < 1e-20 || !det.is_finite() {
+            continue;
+        }
+        // uv per unit of chart x and y (texel units), then texture texels per atlas texel.
+        let (d1, d2) = (tri.uv[1] - tri.uv[0], tri.uv[2] - tri.uv[0]);
+        let du_dx = (d1 * e2.y - d2 * e1.y) / det;
+        let du_dy = (d2 * e1.x - d1 * e2.x) / det;
+        let density = textures
+            .iter()
+            .flatten()
+            .map(|t| {
+                let size = Vec2::new(t.width as f32, t.height as f32);
+                (du_dx * size).length().max((du_dy * size).length())
+            })
+            .fold(0.0f32, f32::max);
+        let s = (2.0 * density).ceil().clamp(
+            *TEXTURE_SAMPLES.start() as f32,
+            *TEXTURE_SAMPLES.end() as f32,
+        ) as u32;
+        let wgt = 1.0 / (s * s) as f32;
+        let lo = q[0].min(q[1]).min(q[2]);
+        let hi = q[0].max(q[1]).max(q[2]);
+        let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
+        let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
+        let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
+        let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let i = y * w + x;
+                for sy in 0..s {
+                    for sx in 0..s {
+                        let c = Vec2::new(
+                            x as f32 + (sx as f32 + 0.5) / s as f32,
+                            y as f32 + (sy as f32 + 0.5) / s as f32,
+                        );
+                        let d = c - q[0];
+                        let b1 = d.perp_dot(e2) / det;
+                        let b2 = e1.perp_dot(d) / det;
+                        if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
+                            continue;
+                        }
+                        let uv = tri.uv[0] * (1.0 - b1 - b2) + tri.uv[1] * b1 + tri.uv[2] * b2;
+                        for (k, t) in textures.iter().enumerate() {
+                            if let Some(t) = t {
+                                m.sum[k][i] += t.bilinear(uv).truncate() * wgt;
+                            }
+                        }
+                        m.weight[i] += wgt;
+                    }
+                }
+            }
+        }
+    }
+    m
 }
 
 /// Clips triangle `q` (texel units) against the unit square at `(x, y)` (Sutherland–Hodgman).

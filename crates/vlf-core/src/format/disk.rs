@@ -15,7 +15,10 @@ use crate::scene::{Camera, SceneSummary, Similarity};
 
 /// The first 8 bytes of every `.vlf` file.
 pub const MAGIC: [u8; 8] = *b"VLFIELD\0";
-/// The version this build writes.
+/// The version this build writes. Version 2: the header records the final gather's settings,
+/// the atlas holds irradiance, and the file holds the materials, uvs and textures the renderer
+/// shades it with (version 1 held outgoing radiance with the textures baked in at the atlas's
+/// resolution).
 pub const VERSION: u32 = 2;
 /// The versions this build reads.
 pub const SUPPORTED_VERSIONS: std::ops::RangeInclusive<u32> = 2..=2;
@@ -114,9 +117,10 @@ pub struct FileHeader {
     pub scene: FileSceneSummary,
     pub cameras: Vec<FileCamera>,
     pub stats: FileStats,
-    /// [`RadianceEncoding::id`](crate::lightfield::RadianceEncoding::id) of the `radiance` section.
+    /// [`RadianceEncoding::id`](crate::lightfield::RadianceEncoding::id) of the `irradiance`
+    /// and `tile_radiance` sections.
     pub radiance_encoding: u32,
-    /// Number of atlas texels (elements of the `radiance` section).
+    /// Number of atlas texels (elements of the `irradiance` section).
     pub texels: u64,
     pub sections: Vec<SectionEntry>,
 }
@@ -124,7 +128,7 @@ pub struct FileHeader {
 /// One entry of the section table.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SectionEntry {
-    /// Role of the section (`"triangles"`, `"faces"`, `"radiance"`; names are unique).
+    /// Role of the section (`"triangles"`, `"faces"`, `"irradiance"`, …; names are unique).
     pub name: String,
     /// Element type ([`KIND_TRIANGLE`], …); each kind has one element size.
     pub kind: u32,
@@ -145,18 +149,33 @@ pub struct SectionEntry {
 /// Section element kinds.
 pub const KIND_TRIANGLE: u32 = 1;
 pub const KIND_FACE: u32 = 2;
-/// Radiance texels; the encoding is [`FileHeader::radiance_encoding`].
+/// Light values (irradiance, tile radiance); the encoding is
+/// [`FileHeader::radiance_encoding`].
 pub const KIND_RADIANCE: u32 = 3;
 /// Packed u32 words of the mirror tile index (see `format::tiles`).
 pub const KIND_TILE_INDEX: u32 = 4;
+/// Materials (`format::shading::FileMaterial`).
+pub const KIND_MATERIAL: u32 = 5;
+/// Triangle uvs (`format::shading::FileUvs`), one per triangle.
+pub const KIND_UVS: u32 = 6;
+/// Texture sizes and wrap modes (`format::shading::FileTexture`).
+pub const KIND_TEXTURE: u32 = 7;
+/// Texture texels: IEEE binary16 r, g, b (6 bytes), whatever the radiance encoding.
+pub const KIND_TEXELS: u32 = 8;
 
 /// Section names.
 pub const SECTION_TRIANGLES: &str = "triangles";
 pub const SECTION_FACES: &str = "faces";
-pub const SECTION_RADIANCE: &str = "radiance";
+pub const SECTION_IRRADIANCE: &str = "irradiance";
+pub const SECTION_MATERIALS: &str = "materials";
+pub const SECTION_UVS: &str = "uvs";
+pub const SECTION_TEXTURES: &str = "textures";
+pub const SECTION_TEXELS: &str = "texels";
 /// Optional pair: both present (scenes with mirror/mixed faces) or both absent.
 pub const SECTION_TILE_INDEX: &str = "tile_index";
 pub const SECTION_TILE_RADIANCE: &str = "tile_radiance";
+/// Bytes per texture texel (f16 RGB).
+pub const TEXEL_BYTES: usize = 6;
 
 /// A triangle (48 bytes; every field a 4-byte little-endian word).
 #[repr(C)]
@@ -185,7 +204,8 @@ pub struct FileFace {
     pub texel_base: u32,
     pub kind: u32,
     pub specular: f32,
-    pub reserved: u32,
+    /// Index into the `materials` section.
+    pub material: u32,
 }
 
 /// Converts every 4-byte word of `items` between little-endian and native order (a no-op on
@@ -238,7 +258,7 @@ impl From<&BakeFace> for FileFace {
             texel_base: f.texel_base,
             kind: f.kind,
             specular: f.specular,
-            reserved: 0,
+            material: f.material,
         }
     }
 }
@@ -257,7 +277,7 @@ impl From<&FileFace> for BakeFace {
             texel_base: f.texel_base,
             kind: f.kind,
             specular: f.specular,
-            _pad: 0,
+            material: f.material,
         }
     }
 }

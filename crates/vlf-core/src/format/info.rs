@@ -27,7 +27,13 @@ pub struct FileInfo {
     pub cameras: Vec<String>,
     pub triangles: u64,
     pub faces: u64,
+    /// Atlas texels (irradiance values).
     pub texels: u64,
+    pub materials: u64,
+    pub textures: u64,
+    /// Texels of all textures.
+    pub texture_texels: u64,
+    /// Encoding of the irradiance and the mirror tiles' radiance.
     pub radiance_encoding: String,
     pub sections: Vec<SectionInfo>,
     pub memory: MemoryInfo,
@@ -45,8 +51,8 @@ pub struct SectionInfo {
     pub element_bytes: u32,
     /// Bytes in the file.
     pub file_bytes: u64,
-    /// Bytes once loaded in memory (radiance stays in its stored encoding, so the same as in
-    /// the file), `None` for sections unknown to this build.
+    /// Bytes once loaded in memory (light values and texels stay in their stored encoding, so
+    /// the same as in the file), `None` for sections unknown to this build.
     pub memory_bytes: Option<u64>,
     pub checksum: String,
 }
@@ -54,15 +60,18 @@ pub struct SectionInfo {
 /// Sizes of the light field on disk and in memory (cf. the paper's Table 1).
 #[derive(Clone, Debug, Serialize)]
 pub struct MemoryInfo {
-    /// Radiance as stored (the file's encoding): also its size in the in-memory
-    /// [`crate::lightfield::LightField`] ([`crate::lightfield::Radiance`]). The renderer keeps
-    /// RGB9E5 as it is on the GPU (`Rgb9e5Ufloat`) and f16 RGB as `Rgba16Float` (8 bytes).
-    pub radiance_file_bytes: u64,
-    /// Radiance as f32 RGBA: what decoding it all would take (and one radiance map of a
-    /// propagation, which keeps several such maps per texel).
-    pub radiance_f32_bytes: u64,
-    /// Triangles and faces (identical on disk and in memory).
+    /// Light as stored (atlas irradiance and mirror tile radiance, in the file's encoding):
+    /// also its size in the in-memory [`crate::lightfield::LightField`]
+    /// ([`crate::lightfield::Radiance`]). The renderer keeps RGB9E5 as it is on the GPU
+    /// (`Rgb9e5Ufloat`) and f16 RGB as `Rgba16Float` (8 bytes).
+    pub light_file_bytes: u64,
+    /// The same as f32 RGBA: what decoding it all would take (and one map of a propagation,
+    /// which keeps several such maps per texel).
+    pub light_f32_bytes: u64,
+    /// Triangles, faces and the mirror tile index (identical on disk and in memory).
     pub geometry_bytes: u64,
+    /// Materials, triangle uvs, texture records and texels (f16 RGB; `Rgba16Float` on the GPU).
+    pub shading_bytes: u64,
     /// Sum of the sections in memory.
     pub loaded_bytes: u64,
 }
@@ -75,11 +84,15 @@ impl FileInfo {
         enc: RadianceEncoding,
     ) -> Self {
         let memory_bytes = |s: &disk::SectionEntry| match s.name.as_str() {
-            disk::SECTION_RADIANCE
+            disk::SECTION_IRRADIANCE
             | disk::SECTION_TILE_RADIANCE
             | disk::SECTION_TRIANGLES
             | disk::SECTION_FACES
-            | disk::SECTION_TILE_INDEX => Some(s.byte_len),
+            | disk::SECTION_TILE_INDEX
+            | disk::SECTION_MATERIALS
+            | disk::SECTION_UVS
+            | disk::SECTION_TEXTURES
+            | disk::SECTION_TEXELS => Some(s.byte_len),
             _ => None,
         };
         let sections: Vec<SectionInfo> = h
@@ -101,10 +114,19 @@ impl FileInfo {
         let count = |name: &str| get(name).map_or(0, |s| s.count);
         let bytes = |name: &str| get(name).map_or(0, |s| s.byte_len);
         let geometry_bytes = bytes(disk::SECTION_TRIANGLES)
-            + bytes(disk::SECTION_FACES)
-            + bytes(disk::SECTION_TILE_INDEX);
-        let radiance_f32_bytes =
+            .saturating_add(bytes(disk::SECTION_FACES))
+            .saturating_add(bytes(disk::SECTION_TILE_INDEX));
+        let light_f32_bytes =
             (h.texels.saturating_add(count(disk::SECTION_TILE_RADIANCE))).saturating_mul(16);
+        let shading_bytes = [
+            disk::SECTION_MATERIALS,
+            disk::SECTION_UVS,
+            disk::SECTION_TEXTURES,
+            disk::SECTION_TEXELS,
+        ]
+        .map(bytes)
+        .iter()
+        .fold(0u64, |a, b| a.saturating_add(*b));
         FileInfo {
             path: path.display().to_string(),
             format_version: preamble.version,
@@ -125,12 +147,16 @@ impl FileInfo {
             triangles: count(disk::SECTION_TRIANGLES),
             faces: count(disk::SECTION_FACES),
             texels: h.texels,
+            materials: count(disk::SECTION_MATERIALS),
+            textures: count(disk::SECTION_TEXTURES),
+            texture_texels: count(disk::SECTION_TEXELS),
             radiance_encoding: enc.name().into(),
             memory: MemoryInfo {
-                radiance_file_bytes: bytes(disk::SECTION_RADIANCE)
-                    + bytes(disk::SECTION_TILE_RADIANCE),
-                radiance_f32_bytes,
+                light_file_bytes: bytes(disk::SECTION_IRRADIANCE)
+                    .saturating_add(bytes(disk::SECTION_TILE_RADIANCE)),
+                light_f32_bytes,
                 geometry_bytes,
+                shading_bytes,
                 loaded_bytes: sections
                     .iter()
                     .filter_map(|s| s.memory_bytes)
@@ -199,6 +225,18 @@ impl fmt::Display for FileInfo {
             "  iterations    {iterations}; sky {:?}",
             p.sky.to_array()
         )?;
+        match &p.final_gather {
+            Some(g) => writeln!(
+                f,
+                "  final gather  texel scale {}, indirect texel scale {}; {} light samples, {} direct rays, {} indirect rays",
+                g.texel_scale,
+                g.indirect_texel_scale,
+                g.light_samples,
+                g.direct_rays,
+                g.indirect_rays
+            )?,
+            None => writeln!(f, "  final gather  none (the atlas is the propagation's)")?,
+        }
         writeln!(
             f,
             "  transform     vlf = (world − {:?}) × {}",
@@ -208,7 +246,11 @@ impl fmt::Display for FileInfo {
         if !self.cameras.is_empty() {
             writeln!(f, "  cameras       {}", self.cameras.join(", "))?;
         }
-        writeln!(f, "  radiance      {}", self.radiance_encoding)?;
+        writeln!(
+            f,
+            "  atlas         irradiance in {}; {} materials, {} textures ({} texels, f16 RGB)",
+            self.radiance_encoding, self.materials, self.textures, self.texture_texels
+        )?;
         writeln!(
             f,
             "  sections      name        count         file       memory"
@@ -231,10 +273,11 @@ impl fmt::Display for FileInfo {
         let m = &self.memory;
         writeln!(
             f,
-            "  memory        radiance {} stored, {} as f32 RGBA; geometry {}; {} loaded",
-            human(m.radiance_file_bytes),
-            human(m.radiance_f32_bytes),
+            "  memory        light {} stored, {} as f32 RGBA; geometry {}; shading {}; {} loaded",
+            human(m.light_file_bytes),
+            human(m.light_f32_bytes),
             human(m.geometry_bytes),
+            human(m.shading_bytes),
             human(m.loaded_bytes)
         )?;
         let s = &self.stats;

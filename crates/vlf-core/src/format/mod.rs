@@ -3,11 +3,15 @@
 //! ```text
 //! 0   Preamble (32 bytes): magic "VLFIELD\0", version u32, header_len u32, file_len u64,
 //!                          header checksum u64
-//! 32  FileHeader (bincode 2, standard config): parameters, direction set, transform, scene
-//!     summary, cameras, bake statistics, radiance encoding, texel count, section table
+//! 32  FileHeader (bincode 2, standard config): parameters (final gather included), direction
+//!     set, transform, scene summary, cameras, bake statistics, radiance encoding, texel count,
+//!     section table
 //! ..  sections, each 16-byte aligned: raw little-endian arrays
 //!     "triangles" [FileTriangle; n] (48 B), "faces" [FileFace; n] (80 B),
-//!     "radiance" (one texel per atlas texel, RGB9E5 or half-float RGB)
+//!     "irradiance" (one per atlas texel, RGB9E5 or half-float RGB),
+//!     "materials" [FileMaterial] (40 B), "uvs" [FileUvs; triangles] (24 B),
+//!     "textures" [FileTexture] (16 B), "texels" (half-float RGB),
+//!     optional "tile_index" + "tile_radiance" (mirror tiles)
 //! ```
 //!
 //! Every section carries a checksum (block-wise XXH64, see [`crate::hash`]) and the header one of its
@@ -19,6 +23,7 @@
 pub mod disk;
 mod info;
 mod read;
+pub mod shading;
 mod source;
 mod tiles;
 mod validate;
@@ -116,7 +121,7 @@ pub enum FormatError {
     /// The content is inconsistent (read) or cannot be stored (write).
     #[error("{element}: {reason}: {path}")]
     Content {
-        /// E.g. `face 3`, `triangle 7`, `radiance texel 12`, `parameters`.
+        /// E.g. `face 3`, `triangle 7`, `irradiance texel 12`, `material 2`, `parameters`.
         element: String,
         reason: String,
         path: PathBuf,
@@ -130,7 +135,8 @@ pub fn write_atomic(path: &Path, lf: &LightField) -> Result<u64, FormatError> {
     write_atomic_with(path, lf, DEFAULT_ENCODING)
 }
 
-/// Writes `lf` to `path` atomically, radiance stored as `encoding`; returns the file size.
+/// Writes `lf` to `path` atomically, the light (irradiance, tile radiance) stored as
+/// `encoding`; returns the file size. Texture texels are always f16.
 ///
 /// The file is written to `.NAME.tmp.PID.N` in the target's directory (a name that never ends
 /// in `.vlf`, so a stale one cannot be mistaken for output), synced, renamed over `path`, and

@@ -12,9 +12,10 @@ use super::disk::{
     self, FileFace, FileHeader, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble,
     SECTION_ALIGN, SectionEntry,
 };
+use super::shading::{self, FileMaterial, FileTexture, FileUvs};
 use super::source::Source;
 use super::tiles;
-use super::validate::{validate_geometry, validate_header_content};
+use super::validate::{validate_geometry, validate_header_content, validate_shading};
 use crate::directions::DirectionSet;
 use crate::hash;
 use crate::lightfield::{
@@ -158,10 +159,14 @@ fn known_section(name: &str, enc: RadianceEncoding) -> Option<(u32, usize)> {
     match name {
         disk::SECTION_TRIANGLES => Some((disk::KIND_TRIANGLE, size_of::<FileTriangle>())),
         disk::SECTION_FACES => Some((disk::KIND_FACE, size_of::<FileFace>())),
-        disk::SECTION_RADIANCE | disk::SECTION_TILE_RADIANCE => {
+        disk::SECTION_IRRADIANCE | disk::SECTION_TILE_RADIANCE => {
             Some((disk::KIND_RADIANCE, enc.bytes_per_texel()))
         }
         disk::SECTION_TILE_INDEX => Some((disk::KIND_TILE_INDEX, 4)),
+        disk::SECTION_MATERIALS => Some((disk::KIND_MATERIAL, size_of::<FileMaterial>())),
+        disk::SECTION_UVS => Some((disk::KIND_UVS, size_of::<FileUvs>())),
+        disk::SECTION_TEXTURES => Some((disk::KIND_TEXTURE, size_of::<FileTexture>())),
+        disk::SECTION_TEXELS => Some((disk::KIND_TEXELS, disk::TEXEL_BYTES)),
         _ => None,
     }
 }
@@ -264,7 +269,11 @@ fn check_sections(
     for name in [
         disk::SECTION_TRIANGLES,
         disk::SECTION_FACES,
-        disk::SECTION_RADIANCE,
+        disk::SECTION_IRRADIANCE,
+        disk::SECTION_MATERIALS,
+        disk::SECTION_UVS,
+        disk::SECTION_TEXTURES,
+        disk::SECTION_TEXELS,
     ] {
         if !h.sections.iter().any(|s| s.name == name) {
             return Err(FormatError::Section {
@@ -282,13 +291,26 @@ fn check_sections(
             path: path.to_owned(),
         });
     }
-    if let Some(r) = h.sections.iter().find(|s| s.name == disk::SECTION_RADIANCE)
+    if let Some(r) = h
+        .sections
+        .iter()
+        .find(|s| s.name == disk::SECTION_IRRADIANCE)
         && r.count != h.texels
     {
         return Err(serr(
             r,
             format!("{} texels, but the header says {}", r.count, h.texels),
         ));
+    }
+    let count = |name| h.sections.iter().find(|s| s.name == name).map(|s| s.count);
+    if let (Some(uvs), Some(tris)) = (count(disk::SECTION_UVS), count(disk::SECTION_TRIANGLES))
+        && uvs != tris
+    {
+        return Err(FormatError::Section {
+            section: disk::SECTION_UVS.into(),
+            reason: format!("{uvs} uv triples for {tris} triangles"),
+            path: path.to_owned(),
+        });
     }
     Ok(())
 }
@@ -319,7 +341,21 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
 
     let triangles: Vec<FileTriangle> = read_pod(src, section(h, disk::SECTION_TRIANGLES), path)?;
     let faces: Vec<FileFace> = read_pod(src, section(h, disk::SECTION_FACES), path)?;
-    let radiance = read_radiance(src, section(h, disk::SECTION_RADIANCE), head.encoding, path)?;
+    let irradiance = read_radiance(
+        src,
+        section(h, disk::SECTION_IRRADIANCE),
+        head.encoding,
+        path,
+    )?;
+    let materials: Vec<FileMaterial> = read_pod(src, section(h, disk::SECTION_MATERIALS), path)?;
+    let uvs: Vec<FileUvs> = read_pod(src, section(h, disk::SECTION_UVS), path)?;
+    let textures: Vec<FileTexture> = read_pod(src, section(h, disk::SECTION_TEXTURES), path)?;
+    let texels = read_radiance(
+        src,
+        section(h, disk::SECTION_TEXELS),
+        RadianceEncoding::RgbF16,
+        path,
+    )?;
 
     let desc = h.directions.desc().ok_or_else(|| {
         content((
@@ -346,7 +382,15 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
     validate_header_content(&params, &to_vlf, &cameras).map_err(content)?;
     let triangles: Vec<BakeTriangle> = triangles.iter().map(Into::into).collect();
     let faces: Vec<BakeFace> = faces.iter().map(Into::into).collect();
-    validate_geometry(&triangles, &faces, radiance.len() as u64).map_err(content)?;
+    let shading = shading::unpack(&materials, &uvs, &textures, texels).map_err(content)?;
+    validate_geometry(
+        &triangles,
+        &faces,
+        irradiance.len() as u64,
+        shading.materials.len(),
+    )
+    .map_err(content)?;
+    validate_shading(&shading, triangles.len()).map_err(content)?;
     let tiles = match h
         .sections
         .iter()
@@ -396,7 +440,8 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
         cameras,
         triangles,
         faces,
-        radiance,
+        irradiance,
+        shading,
         tiles,
         stats: (&h.stats).into(),
     })
@@ -438,7 +483,8 @@ fn read_pod<T: Pod>(
     Ok(items)
 }
 
-/// Reads the radiance section `s` into memory as stored: one aligned buffer, filled with
+/// Reads the light section `s` (irradiance, tile radiance or texture texels) into memory as
+/// stored: one aligned buffer, filled with
 /// positioned reads of whole checksum blocks (each thread takes a contiguous run of blocks and
 /// reads straight into its part of the buffer), every block hashed and checked for values no
 /// writer produces while it is in cache. Nothing is decoded.
@@ -489,10 +535,10 @@ fn read_radiance(
         });
     }
     if let Some(i) = bad {
-        let element = if s.name == disk::SECTION_RADIANCE {
-            format!("radiance texel {i}")
-        } else {
-            format!("{} value {i}", s.name)
+        let element = match s.name.as_str() {
+            disk::SECTION_IRRADIANCE => format!("irradiance texel {i}"),
+            disk::SECTION_TEXELS => format!("texture texel {i}"),
+            _ => format!("{} value {i}", s.name),
         };
         return Err(FormatError::Content {
             element,

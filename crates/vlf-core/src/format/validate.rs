@@ -1,7 +1,7 @@
-//! Content checks shared by the writer and the reader: parameters, transform, cameras and
-//! geometry (every element named in the error).
+//! Content checks shared by the writer and the reader: parameters, transform, cameras,
+//! geometry and shading (every element named in the error).
 
-use crate::lightfield::{BakeFace, BakeParams, BakeTriangle, FACE_MIXED};
+use crate::lightfield::{BakeFace, BakeParams, BakeTriangle, FACE_MIXED, Shading};
 use crate::scene::{Camera, Similarity};
 
 /// (element, reason) of a failed check.
@@ -46,6 +46,7 @@ pub(super) fn validate_geometry(
     triangles: &[BakeTriangle],
     faces: &[BakeFace],
     texels: u64,
+    materials: usize,
 ) -> Result<(), Invalid> {
     for (i, f) in faces.iter().enumerate() {
         let el = || format!("face {i}");
@@ -71,12 +72,21 @@ pub(super) fn validate_geometry(
         if f.kind > FACE_MIXED {
             return Err((el(), format!("unknown face kind {}", f.kind)));
         }
+        if f.material as usize >= materials {
+            return Err((
+                el(),
+                format!(
+                    "material {} is out of range ({materials} materials)",
+                    f.material
+                ),
+            ));
+        }
         let end = u128::from(f.texel_base) + 2 * u128::from(f.width) * u128::from(f.height);
         if end > u128::from(texels) {
             return Err((
                 el(),
                 format!(
-                    "texels {}..{end} lie beyond the radiance array ({texels} texels)",
+                    "texels {}..{end} lie beyond the irradiance array ({texels} texels)",
                     f.texel_base
                 ),
             ));
@@ -101,4 +111,9 @@ pub(super) fn validate_geometry(
         }
     }
     Ok(())
+}
+
+/// Materials, uvs and textures fit together and the geometry ([`Shading::check`]).
+pub(super) fn validate_shading(shading: &Shading, triangles: usize) -> Result<(), Invalid> {
+    shading.check(triangles).map_err(|e| (e.element, e.reason))
 }

@@ -12,8 +12,8 @@ use super::disk::{
     FileStats, FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble,
     SECTION_ALIGN, SectionEntry, VERSION,
 };
-use super::tiles;
-use super::validate::{validate_geometry, validate_header_content};
+use super::validate::{validate_geometry, validate_header_content, validate_shading};
+use super::{shading, tiles};
 use crate::hash;
 use crate::lightfield::{LightField, Radiance, RadianceEncoding};
 use crate::parallel;
@@ -70,15 +70,24 @@ pub(super) fn encode<'a>(
         path: path.to_owned(),
     };
     validate_header_content(&lf.params, &lf.to_vlf, &lf.cameras).map_err(content)?;
-    let texels = lf.radiance.len() as u64;
-    validate_geometry(&lf.triangles, &lf.faces, texels).map_err(content)?;
+    let texels = lf.irradiance.len() as u64;
+    validate_geometry(&lf.triangles, &lf.faces, texels, lf.shading.materials.len())
+        .map_err(content)?;
+    validate_shading(&lf.shading, lf.triangles.len()).map_err(content)?;
 
     let tris: Vec<FileTriangle> = lf.triangles.iter().map(FileTriangle::from).collect();
     let faces: Vec<FileFace> = lf.faces.iter().map(FileFace::from).collect();
     let tri_bytes = pod_section(tris);
     let face_bytes = pod_section(faces);
-    // Radiance is finite by construction (`Radiance` cannot hold NaN or infinity).
-    let rad_bytes = radiance_bytes(&lf.radiance, enc);
+    // Light values are finite by construction (`Radiance` cannot hold NaN or infinity).
+    let irr_bytes = radiance_bytes(&lf.irradiance, enc);
+    let (materials, uvs, textures) = shading::pack(&lf.shading);
+    let (n_mat, n_uvs, n_tex) = (materials.len(), uvs.len(), textures.len());
+    let mat_bytes = pod_section(materials);
+    let uv_bytes = pod_section(uvs);
+    let tex_bytes = pod_section(textures);
+    // Always f16 (checked by validate_shading): borrowed as stored.
+    let texel_bytes = lf.shading.texels.as_bytes();
 
     let tiles = match &lf.tiles {
         Some(t) => {
@@ -118,15 +127,55 @@ pub(super) fn encode<'a>(
             hash::section_checksum(&face_bytes),
         ),
         entry(
-            disk::SECTION_RADIANCE,
+            disk::SECTION_MATERIALS,
+            disk::KIND_MATERIAL,
+            n_mat,
+            size_of::<shading::FileMaterial>(),
+            &mat_bytes,
+            hash::section_checksum(&mat_bytes),
+        ),
+        entry(
+            disk::SECTION_UVS,
+            disk::KIND_UVS,
+            n_uvs,
+            size_of::<shading::FileUvs>(),
+            &uv_bytes,
+            hash::section_checksum(&uv_bytes),
+        ),
+        entry(
+            disk::SECTION_TEXTURES,
+            disk::KIND_TEXTURE,
+            n_tex,
+            size_of::<shading::FileTexture>(),
+            &tex_bytes,
+            hash::section_checksum(&tex_bytes),
+        ),
+        entry(
+            disk::SECTION_TEXELS,
+            disk::KIND_TEXELS,
+            lf.shading.texels.len(),
+            disk::TEXEL_BYTES,
+            texel_bytes,
+            parallel::section_checksum(texel_bytes),
+        ),
+        entry(
+            disk::SECTION_IRRADIANCE,
             disk::KIND_RADIANCE,
-            lf.radiance.len(),
+            lf.irradiance.len(),
             enc.bytes_per_texel(),
-            &rad_bytes,
-            parallel::section_checksum(&rad_bytes),
+            &irr_bytes,
+            parallel::section_checksum(&irr_bytes),
         ),
     ];
-    let mut bodies = vec![Cow::Owned(tri_bytes), Cow::Owned(face_bytes), rad_bytes];
+    let mut bodies = vec![
+        Cow::Owned(tri_bytes),
+        Cow::Owned(face_bytes),
+        Cow::Owned(mat_bytes),
+        Cow::Owned(uv_bytes),
+        Cow::Owned(tex_bytes),
+        Cow::Borrowed(texel_bytes),
+        irr_bytes,
+    ];
     if let Some((idx_bytes, vals)) = tiles {
         sections.push(entry(
             disk::SECTION_TILE_INDEX,

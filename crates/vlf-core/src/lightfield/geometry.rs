@@ -49,7 +49,8 @@ pub struct BakeFace {
     pub kind: u32,
     /// Mirror weight (0 for diffuse faces).
     pub specular: f32,
-    pub _pad: u32,
+    /// Index of the face's material ([`Shading::materials`](super::Shading::materials)).
+    pub material: u32,
 }
 
 impl BakeFace {

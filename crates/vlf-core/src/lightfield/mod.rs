@@ -1,10 +1,11 @@
 //! The baked light field in memory: what the baker produces, the file stores and the viewer
 //! renders, and the vocabulary the three share: the bake parameters ([`params`]), the
 //! geometry records ([`geometry`]: triangles and faces with their atlas charts, in VLF
-//! coordinates), the mirror tile index ([`tiles`]), the radiance encodings ([`encoding`]) and
-//! [`Radiance`], the radiance kept in its stored encoding (f16 RGB or RGB9E5, the bytes of the
-//! file's radiance sections), so loading a file is one read per section and a renderer uploads
-//! the values as they are; decoding to f32 happens only where f32 is needed.
+//! coordinates), the mirror tile index ([`tiles`]), the radiance encodings ([`encoding`]),
+//! [`Radiance`], light values kept in their stored encoding (f16 RGB or RGB9E5, the bytes of
+//! the file's sections), so loading a file is one read per section and a renderer uploads the
+//! values as they are (decoding to f32 happens only where f32 is needed), and [`shading`]:
+//! the materials, uvs and textures the renderer applies per pixel to the atlas irradiance.
 //!
 //! This is the layer `bake` and `format` stand on: it uses only `scene`, `directions` and the
 //! checksum block size of `hash`, never the baker or the file code.
@@ -13,6 +14,7 @@ pub mod encoding;
 pub mod geometry;
 pub mod params;
 mod radiance;
+pub mod shading;
 pub mod tiles;
 
 use serde::{Deserialize, Serialize};
@@ -23,6 +25,7 @@ pub use encoding::{DEFAULT_ENCODING, RadianceEncoding};
 pub use geometry::{BakeFace, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED};
 pub use params::{BakeParams, GatherParams, Iterations, ParamsError};
 pub use radiance::{InvalidStoredRadiance, NonFiniteRadiance, Radiance};
+pub use shading::{InvalidShading, NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture};
 pub use tiles::TileIndex;
 
 /// Timings and bookkeeping of a bake.
@@ -62,11 +65,16 @@ pub struct LightField {
     pub cameras: Vec<Camera>,
     /// Geometry in VLF coordinates.
     pub triangles: Vec<BakeTriangle>,
-    /// Faces with their atlas charts.
+    /// Faces with their atlas charts and materials.
     pub faces: Vec<BakeFace>,
-    /// Total outgoing radiance per atlas texel (rgb), emission included; both sides of every
-    /// face (see [`BakeFace::texel_base`]).
-    pub radiance: Radiance,
+    /// Irradiance per atlas texel (rgb): all the light arriving at the texel's side, from
+    /// surfaces, sky and suns; both sides of every face (see [`BakeFace::texel_base`]). The
+    /// renderer turns it into outgoing radiance per pixel with [`Shading`] (`Le + ρ_d/π · E`),
+    /// so textures keep their own resolution. Finite and non-negative like radiance, so it is
+    /// kept in the same stored encodings.
+    pub irradiance: Radiance,
+    /// Materials, triangle uvs and textures.
+    pub shading: Shading,
     /// Sparse per-direction tiles of the mirror and mixed faces (specular part of their
     /// outgoing radiance); `None` for diffuse-only scenes.
     pub tiles: Option<MirrorTiles>,
@@ -82,8 +90,9 @@ pub struct MirrorTiles {
 }
 
 impl LightField {
-    /// Bytes of the radiance data in memory (atlas and mirror tiles, as stored).
-    pub fn radiance_bytes(&self) -> usize {
-        self.radiance.byte_len() + self.tiles.as_ref().map_or(0, |t| t.radiance.byte_len())
+    /// Bytes of the stored light in memory (atlas irradiance and mirror tile radiance, as
+    /// stored).
+    pub fn light_bytes(&self) -> usize {
+        self.irradiance.byte_len() + self.tiles.as_ref().map_or(0, |t| t.radiance.byte_len())
     }
 }

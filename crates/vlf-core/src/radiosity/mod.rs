@@ -3,9 +3,9 @@
 //!
 //! * **Patches** are the covered diffuse-atlas texels of the prepared scene
 //!   ([`BakeScene`]), both sides of every face, so a solution is a per-texel radiance array in
-//!   exactly the layout of [`reference::Propagated::radiance`] and becomes a [`LightField`]
-//!   through [`bake::assemble`]: the renderer shows it unchanged and images compare like for
-//!   like with VLF bakes.
+//!   the atlas layout of a propagation ([`BakeScene::outgoing_radiance`] of its irradiance);
+//!   its irradiance becomes a [`LightField`] through [`bake::assemble`]: the renderer shows it
+//!   as it shows a VLF bake and images compare like for like.
 //! * **Form factors** ([`form_factors`]) are estimated by ray casting ("the ray engine"): from
 //!   each patch, stratified cosine-weighted rays with origins jittered over the texel's covered
 //!   area, traced in VLF space with the path tracer's [`Bvh`](crate::pathtrace::Bvh);
@@ -199,7 +199,6 @@ pub fn to_light_field(
         })
         .collect();
     let propagated = reference::Propagated {
-        radiance: solution.radiance.clone(),
         irradiance,
         tiles: None,
         iterations: solution.iterations,

@@ -18,7 +18,7 @@ pub type IterationCallback<'a> = Option<&'a mut dyn FnMut(u32, &[[f32; 4]])>;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Solution {
     /// Outgoing radiance per atlas texel, emission included (rgb, a = 0; uncovered texels 0):
-    /// the layout of `bake::reference::Propagated::radiance`.
+    /// the atlas layout of `BakeScene::outgoing_radiance`.
     pub radiance: Vec<[f32; 4]>,
     /// Sweeps run.
     pub iterations: u32,

@@ -21,7 +21,7 @@ pub(super) struct HostRadiance {
     /// Unshot radiance of the texels (sent in the next iteration).
     pub unshot: Vec<[f32; 4]>,
     pub unshot_tiles: Vec<[f32; 4]>,
-    pub total: Vec<[f32; 4]>,
+    /// Total radiance of the mirror tiles (specular part), all iterations.
     pub total_tiles: Vec<[f32; 4]>,
     /// Scratch: the radiance the current iteration leaves unshot.
     next: Vec<[f32; 4]>,
@@ -31,7 +31,7 @@ pub(super) struct HostRadiance {
 }
 
 impl HostRadiance {
-    /// Before the first iteration: the emission is unshot and counts in the total.
+    /// Before the first iteration: the emission is unshot.
     pub fn new(host: &Host) -> HostRadiance {
         let scene = host.scene;
         let tile_len = host.tile_len();
@@ -39,7 +39,6 @@ impl HostRadiance {
             unshot: scene.emission.clone(),
             unshot_tiles: vec![[0f32; 4]; tile_len],
             total_tiles: vec![[0f32; 4]; tile_len],
-            total: scene.emission.clone(),
             next: vec![[0f32; 4]; host.texels()],
             irradiance: vec![[0f32; 4]; host.texels()],
             energy: EnergyStats {
@@ -56,7 +55,8 @@ impl HostRadiance {
 }
 
 /// Iteration `it` of `max_iter`: propagates `state`'s unshot radiance along every direction
-/// (the suns in the first iteration only) and adds what arrives to the totals.
+/// (the suns in the first iteration only) and adds what arrives to the irradiance and the tiles'
+/// totals.
 pub(super) fn run_iteration(
     ctx: &GpuContext,
     pipelines: &BakePipelines,
@@ -193,7 +193,6 @@ pub(super) fn run_iteration(
     }
     log_energy(it, &e);
     state.energy.record(&e);
-    reference::accumulate(&mut state.total, &state.next);
     std::mem::swap(&mut state.unshot, &mut state.next);
     Ok(())
 }

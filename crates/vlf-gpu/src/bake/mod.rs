@@ -169,7 +169,6 @@ fn run(
         }
     }
     Ok(Propagated {
-        radiance: state.total,
         irradiance: state.irradiance,
         tiles: host.setup.spec.map(|s| (s.index, state.total_tiles)),
         iterations,

@@ -18,7 +18,7 @@ impl FaceIdPass {
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
     ) -> Self {
-        let (pass_layout, bind_group) = geometry_pass_layout(device, "FaceId", lf);
+        let (pass_layout, bind_group) = geometry_pass_layout(device, "FaceId", &[&lf.triangles]);
         let depth = wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(true),
@@ -32,7 +32,7 @@ impl FaceIdPass {
             &shaders::RENDER_FACE_ID,
             globals_layout,
             &pass_layout,
-            FACE_ID_FORMAT,
+            &[FACE_ID_FORMAT],
             depth,
         );
         Self {

@@ -2,13 +2,18 @@
 //! (shader: `shaders/render_final_radiance.wgsl`).
 //!
 //! * Background (pass 3 found no face): the bake's sky radiance `params.sky`.
-//! * Diffuse faces (`kind == FACE_DIFFUSE`): the texel radiance of the face's atlas chart, read
-//!   bilinearly at the pass-4 position on the side facing the camera, texel indices clamped to
-//!   the chart (never across faces or sides). The atlas is a texture read with `textureLoad`
-//!   (see [`super::upload`]); the bilinear filter is done by hand in f32 so the CPU reproduces
-//!   it exactly ([`diffuse_radiance`]).
-//! * Mirror and mixed faces (`kind != FACE_DIFFUSE`): the diffuse texels (the diffuse part of
-//!   mixed faces) plus the specular part from the sparse per-direction tiles: radiance towards
+//! * Every face, on the side facing the camera: `L = Le(uv) [front side only] + ρ_d(uv)/π · E`
+//!   ([`surface_radiance`]). E is the irradiance of the face's atlas chart, read bilinearly at
+//!   the pass-4 position, texel indices clamped to the chart (never across faces or sides)
+//!   ([`atlas_irradiance`]); ρ_d = diffuse weight × base colour × base-colour texture(uv) and
+//!   Le = emission × emissive texture(uv), the textures looked up at pass 4's uv bilinearly with
+//!   their wrap modes (`Shading::sample`), so they render at their own resolution, not the
+//!   atlas's. Atlas and textures are textures read with `textureLoad` (see [`super::upload`]);
+//!   the filters are done by hand in f32 so the CPU reproduces them exactly. Flags in the face
+//!   record skip the atlas for faces without a diffuse part, the uv and texels for untextured
+//!   faces and the emission for non-emitters.
+//! * Mirror and mixed faces (`kind != FACE_DIFFUSE`) add the specular part from the sparse
+//!   per-direction tiles: radiance towards
 //!   the eye travels against the view ray, so the three sphere vertices of pass 1 are taken in
 //!   the opposite sense with the pass-2 weights (paper §4's `Ls(ω,s,t,u,v,p) = Σ αᵢ Ls(ωᵢ,…)`);
 //!   for each, the position maps into that direction's ray grid and the tile values of the
@@ -27,11 +32,11 @@
 
 use std::collections::HashMap;
 
-use glam::Vec3;
-use vlf_core::lightfield::{BakeFace, Radiance};
+use glam::{Vec2, Vec3};
+use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
 use super::targets::{RADIANCE_FORMAT, Targets};
-use super::upload::GpuLightField;
+use super::upload::{GpuLightField, rho_over_pi};
 use super::{storage_entry, texture_entry};
 use crate::shaders;
 
@@ -39,6 +44,8 @@ pub struct FinalRadiancePass {
     pass_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
+    /// The shader's `TEXTURED` constant: whether the light field has textures.
+    textured: bool,
     /// Radiance target only (stills, debug views).
     pipeline: wgpu::RenderPipeline,
     /// Radiance target + the window's surface, one per surface format.
@@ -46,7 +53,14 @@ pub struct FinalRadiancePass {
 }
 
 impl FinalRadiancePass {
-    pub fn new(device: &wgpu::Device, globals_layout: &wgpu::BindGroupLayout) -> Self {
+    /// `textured`: whether the light field has textures; without, the texture code is
+    /// compiled out of the pipelines (the shader's `TEXTURED` constant), as llvmpipe would
+    /// otherwise run it under a mask at every pixel.
+    pub fn new(
+        device: &wgpu::Device,
+        globals_layout: &wgpu::BindGroupLayout,
+        textured: bool,
+    ) -> Self {
         let vis = wgpu::ShaderStages::FRAGMENT;
         let unfiltered = wgpu::TextureSampleType::Float { filterable: false };
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -62,6 +76,9 @@ impl FinalRadiancePass {
                 texture_entry(7, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(8, vis, unfiltered),
                 texture_entry(9, vis, unfiltered),
+                texture_entry(10, vis, unfiltered),
+                texture_entry(11, vis, wgpu::TextureSampleType::Uint),
+                texture_entry(12, vis, unfiltered),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -70,11 +87,12 @@ impl FinalRadiancePass {
             immediate_size: 0,
         });
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
-        let pipeline = Self::create_pipeline(device, &pipeline_layout, &module, None);
+        let pipeline = Self::create_pipeline(device, &pipeline_layout, &module, textured, None);
         Self {
             pass_layout,
             pipeline_layout,
             module,
+            textured,
             pipeline,
             present_pipelines: HashMap::new(),
         }
@@ -84,8 +102,10 @@ impl FinalRadiancePass {
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
         module: &wgpu::ShaderModule,
+        textured: bool,
         present: Option<wgpu::TextureFormat>,
     ) -> wgpu::RenderPipeline {
+        let constants = [("TEXTURED", f64::from(u8::from(textured)))];
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -117,7 +137,10 @@ impl FinalRadiancePass {
             fragment: Some(wgpu::FragmentState {
                 module,
                 entry_point: Some(entry),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
                 targets,
             }),
             multiview_mask: None,
@@ -153,6 +176,9 @@ impl FinalRadiancePass {
                 tex(7, &lf.tile_words_view),
                 tex(8, &lf.tile_values_view),
                 tex(9, &lf.frames_view),
+                tex(10, &targets.uv_view),
+                tex(11, &lf.texture_records_view),
+                tex(12, &lf.texels_view),
             ],
         })
     }
@@ -195,7 +221,13 @@ impl FinalRadiancePass {
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let pipeline = self.present_pipelines.entry(format).or_insert_with(|| {
-            Self::create_pipeline(device, &self.pipeline_layout, &self.module, Some(format))
+            Self::create_pipeline(
+                device,
+                &self.pipeline_layout,
+                &self.module,
+                self.textured,
+                Some(format),
+            )
         });
         let attachments = [
             Some(super::color_attachment(
@@ -237,10 +269,10 @@ impl FinalRadiancePass {
     }
 }
 
-/// CPU counterpart of the shader's atlas lookup: the radiance of `face` at plane point `p` on
+/// CPU counterpart of the shader's atlas lookup: the irradiance of `face` at plane point `p` on
 /// `side` (0 = front), bilinear in chart coordinates with clamp-to-chart, in f32 like the GPU
 /// (texels decoded exactly, as the GPU's texel fetch decodes them).
-pub fn diffuse_radiance(face: &BakeFace, radiance: &Radiance, side: u32, p: Vec3) -> Vec3 {
+pub fn atlas_irradiance(face: &BakeFace, irradiance: &Radiance, side: u32, p: Vec3) -> Vec3 {
     let d = p - Vec3::from(face.origin);
     let x = d.dot(Vec3::from(face.u)) / face.texel_size - 0.5;
     let y = d.dot(Vec3::from(face.v)) / face.texel_size - 0.5;
@@ -252,10 +284,37 @@ pub fn diffuse_radiance(face: &BakeFace, radiance: &Radiance, side: u32, p: Vec3
     let j0 = (y0 as i64).clamp(0, h - 1);
     let j1 = (y0 as i64 + 1).clamp(0, h - 1);
     let base = face.texel_base as i64 + i64::from(side) * w * h;
-    let at = |i: i64, j: i64| Vec3::from(radiance.get((base + j * w + i) as usize));
+    let at = |i: i64, j: i64| Vec3::from(irradiance.get((base + j * w + i) as usize));
     let top = at(i0, j0).lerp(at(i1, j0), fx);
     let bottom = at(i0, j1).lerp(at(i1, j1), fx);
     top.lerp(bottom, fy)
+}
+
+/// CPU counterpart of pass 5 without the specular tiles: `Le(uv) [side 0] + ρ_d(uv)/π · E` of
+/// face `face` at plane point `p` and texture coordinate `uv` on `side`, in f32 in the shader's
+/// order of operations. `offsets` is `lf.shading.texture_offsets()`.
+pub fn surface_radiance(
+    lf: &LightField,
+    offsets: &[u64],
+    face: u32,
+    side: u32,
+    p: Vec3,
+    uv: Vec2,
+) -> Vec3 {
+    let f = &lf.faces[face as usize];
+    let sh = &lf.shading;
+    let m = &sh.materials[f.material as usize];
+    let mut l = Vec3::ZERO;
+    let rho = rho_over_pi(m);
+    if rho.max_element() > 0.0 {
+        let rho = rho * sh.sample(m.base_color_texture, uv, offsets);
+        l = rho * atlas_irradiance(f, &lf.irradiance, side, p);
+    }
+    let le = Vec3::from(m.emission);
+    if side == 0 && le.max_element() > 0.0 {
+        l += le * sh.sample(m.emissive_texture, uv, offsets);
+    }
+    l
 }
 
 /// The side of `face` that an eye at `eye` sees at `p`: 0 (front) when the eye is on the

@@ -10,10 +10,12 @@
 //! 3. [`face_id`]: the scene, depth-tested → face id of the visible surface (`R32Uint`,
 //!    [`NO_FACE`] for background).
 //! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
-//!    (`Rgba32Float`, w = 1 where a face is seen).
-//! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the atlas radiance at that
-//!    point on the side facing the camera, or the sky (`Rgba32Float`); stills average several
-//!    jittered samples into a storage buffer.
+//!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`).
+//! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
+//!    point towards the camera: emission and base-colour texture at the pixel's uv applied to
+//!    the atlas irradiance on the side facing the camera (`Le + ρ_d/π · E`), plus the mirror
+//!    tiles, or the sky (`Rgba32Float`); stills average several jittered samples into a storage
+//!    buffer.
 //!
 //! Then [`display`] shows the selected [`Pass`]'s output (debug view) on a colour target. For
 //! the final image in the window the display is fused into pass 5 (a second colour target:
@@ -158,6 +160,8 @@ pub struct FrameData {
     pub barycentrics: Vec<[f32; 4]>,
     pub face_id: Vec<u32>,
     pub position: Vec<[f32; 4]>,
+    /// Pass 4's uv (meaningful only where a face is seen).
+    pub uv: Vec<[f32; 2]>,
     pub radiance: Vec<[f32; 4]>,
 }
 
@@ -249,7 +253,11 @@ impl Renderer {
             barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
             face_id: FaceIdPass::new(device, &globals_layout, &light_field),
             position: PositionPass::new(device, &globals_layout, &light_field),
-            final_radiance: FinalRadiancePass::new(device, &globals_layout),
+            final_radiance: FinalRadiancePass::new(
+                device,
+                &globals_layout,
+                !lf.shading.textures.is_empty(),
+            ),
             display: DisplayPass::new(device, &globals_layout),
             timer: GpuTimer::new(device, &ctx.queue, TIMED_PASSES.len() as u32),
             globals,
@@ -272,21 +280,27 @@ impl Renderer {
         self.debug_view = pass;
     }
 
-    /// Bytes of light-field data on the GPU (geometry, faces, atlas, direction mesh).
+    /// Bytes of light-field data on the GPU (geometry, uvs, faces, atlas, textures, direction
+    /// mesh).
     pub fn light_field_bytes(&self) -> u64 {
         self.light_field.bytes
     }
 
-    /// Bytes of the radiance textures on the GPU (atlas and mirror tile values, in the stored
-    /// encoding: 4 bytes per value for RGB9E5, 8 for f16; see [`upload`]).
+    /// Bytes of the light textures on the GPU (atlas irradiance and mirror tile values, in the
+    /// stored encoding: 4 bytes per value for RGB9E5, 8 for f16; see [`upload`]).
     pub fn radiance_bytes(&self) -> u64 {
         self.light_field.radiance_bytes
+    }
+
+    /// Bytes of the surface textures on the GPU (texels as `Rgba16Float` and their records).
+    pub fn texture_bytes(&self) -> u64 {
+        self.light_field.texture_bytes
     }
 
     /// Bytes of the per-view targets (0 before the first frame).
     pub fn target_bytes(&self) -> u64 {
         self.frame.as_ref().map_or(0, |f| {
-            u64::from(f.targets.width) * u64::from(f.targets.height) * (16 * 5 + 4 + 4)
+            u64::from(f.targets.width) * u64::from(f.targets.height) * (16 * 5 + 4 + 4 + 8)
         })
     }
 
@@ -465,6 +479,7 @@ impl Renderer {
             barycentrics: targets::read_texture(d, q, &t.barycentrics, 16)?,
             face_id: targets::read_texture(d, q, &t.face_id, 4)?,
             position: targets::read_texture(d, q, &t.position, 16)?,
+            uv: targets::read_texture(d, q, &t.uv, 8)?,
             radiance: targets::read_texture(d, q, &t.radiance, 16)?,
         })
     }

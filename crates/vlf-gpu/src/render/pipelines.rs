@@ -81,35 +81,45 @@ pub(super) fn sphere_pass_layout(
     (layout, bind_group)
 }
 
-/// Group-1 layout and bind group of a scene-geometry pass (3, 4): triangles.
+/// Group-1 layout and bind group of a scene-geometry pass (3, 4): `buffers` (the triangles,
+/// then any per-vertex data the pass pulls) as read-only storage bindings 0, 1, …
 pub(super) fn geometry_pass_layout(
     device: &wgpu::Device,
     pass: &str,
-    lf: &GpuLightField,
+    buffers: &[&wgpu::Buffer],
 ) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
+    let entries: Vec<_> = (0..buffers.len() as u32)
+        .map(|i| storage_entry(i, wgpu::ShaderStages::VERTEX, true))
+        .collect();
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(&format!("{pass}::pass_layout")),
-        entries: &[storage_entry(0, wgpu::ShaderStages::VERTEX, true)],
+        entries: &entries,
     });
+    let entries: Vec<_> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(&format!("{pass}::pass_bind_group")),
         layout: &layout,
-        entries: &[wgpu::BindGroupEntry {
-            binding: 0,
-            resource: lf.triangles.as_entire_binding(),
-        }],
+        entries: &entries,
     });
     (layout, bind_group)
 }
 
-/// A vertex-pulling render pipeline (no vertex buffers, no culling) writing one colour target.
+/// A vertex-pulling render pipeline (no vertex buffers, no culling) writing one colour target
+/// per format of `formats`.
 fn render_pipeline(
     device: &wgpu::Device,
     pass: &str,
     shader: &crate::shaders::Shader,
     globals_layout: &wgpu::BindGroupLayout,
     pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
+    formats: &[wgpu::TextureFormat],
     depth: Option<wgpu::DepthStencilState>,
 ) -> wgpu::RenderPipeline {
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -118,6 +128,16 @@ fn render_pipeline(
         immediate_size: 0,
     });
     let module = shader.module(device);
+    let targets: Vec<_> = formats
+        .iter()
+        .map(|&format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        })
+        .collect();
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(&format!("{pass}::pipeline")),
         layout: Some(&layout),
@@ -138,11 +158,7 @@ fn render_pipeline(
             module: &module,
             entry_point: Some("fs_main"),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
+            targets: &targets,
         }),
         multiview_mask: None,
         cache: None,
@@ -163,7 +179,7 @@ pub(super) fn sphere_pipeline(
         shader,
         globals_layout,
         pass_layout,
-        format,
+        &[format],
         None,
     )
 }
@@ -174,7 +190,7 @@ pub(super) fn geometry_pipeline(
     shader: &crate::shaders::Shader,
     globals_layout: &wgpu::BindGroupLayout,
     pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
+    formats: &[wgpu::TextureFormat],
     depth: wgpu::DepthStencilState,
 ) -> wgpu::RenderPipeline {
     render_pipeline(
@@ -183,7 +199,7 @@ pub(super) fn geometry_pipeline(
         shader,
         globals_layout,
         pass_layout,
-        format,
+        formats,
         Some(depth),
     )
 }

@@ -1,8 +1,11 @@
-//! Pass 4: VLF position of the visible surface, interpolated from the vertices. Reuses pass 3's
-//! depth buffer (compare greater-or-equal, no writes) so only the visible surface is shaded.
-//! Shader: `shaders/render_position.wgsl`.
+//! Pass 4: VLF position and `TEXCOORD_0` of the visible surface, interpolated from the
+//! vertices into two targets. Reuses pass 3's depth buffer (compare greater-or-equal, no
+//! writes) so only the visible surface is shaded. Shader: `shaders/render_position.wgsl`.
+//!
+//! The uv target is what lets pass 5 apply textures at their own resolution; it is neither
+//! cleared nor read where no face is seen, and pass 5 reads it for textured faces only.
 
-use super::targets::{DEPTH_FORMAT, POSITION_FORMAT, Targets};
+use super::targets::{DEPTH_FORMAT, POSITION_FORMAT, Targets, UV_FORMAT};
 use super::upload::GpuLightField;
 use super::{geometry_pass_layout, geometry_pipeline};
 use crate::shaders;
@@ -18,7 +21,8 @@ impl PositionPass {
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
     ) -> Self {
-        let (pass_layout, bind_group) = geometry_pass_layout(device, "Position", lf);
+        let (pass_layout, bind_group) =
+            geometry_pass_layout(device, "Position", &[&lf.triangles, &lf.uvs]);
         let depth = wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
             depth_write_enabled: Some(false),
@@ -32,7 +36,7 @@ impl PositionPass {
             &shaders::RENDER_POSITION,
             globals_layout,
             &pass_layout,
-            POSITION_FORMAT,
+            &[POSITION_FORMAT, UV_FORMAT],
             depth,
         );
         Self {
@@ -41,7 +45,8 @@ impl PositionPass {
         }
     }
 
-    /// Clears positions to 0 (w = 0: no surface) and draws the scene against pass 3's depth.
+    /// Clears positions to 0 (w = 0: no surface) and draws the scene against pass 3's depth,
+    /// writing positions and uvs.
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -52,10 +57,22 @@ impl PositionPass {
     ) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("Position::pass"),
-            color_attachments: &[Some(super::color_attachment(
-                &targets.position_view,
-                wgpu::Color::TRANSPARENT,
-            ))],
+            color_attachments: &[
+                Some(super::color_attachment(
+                    &targets.position_view,
+                    wgpu::Color::TRANSPARENT,
+                )),
+                // Read only where a face is seen, all of which this pass writes: not cleared.
+                Some(wgpu::RenderPassColorAttachment {
+                    view: &targets.uv_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                }),
+            ],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &targets.depth_view,
                 depth_ops: Some(wgpu::Operations {

@@ -10,6 +10,8 @@ pub const BARYCENTRICS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32
 pub const FACE_ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 /// Pass 4 output: VLF position (xyz), w = 1 where a face is seen.
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Pass 4's second output: `TEXCOORD_0` of the visible point (undefined where no face is seen).
+pub const UV_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 /// Pass 5 output: radiance of the current sample (rgb), a = 1 where a face is seen.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Depth of passes 3–4 (reverse-Z: cleared to 0, greater is nearer).
@@ -27,6 +29,8 @@ pub struct Targets {
     pub face_id_view: wgpu::TextureView,
     pub position: wgpu::Texture,
     pub position_view: wgpu::TextureView,
+    pub uv: wgpu::Texture,
+    pub uv_view: wgpu::TextureView,
     pub depth_view: wgpu::TextureView,
     /// Pass 5 output: radiance of the current sample.
     pub radiance: wgpu::Texture,
@@ -81,6 +85,7 @@ impl Targets {
             texture("Barycentrics::target", BARYCENTRICS_FORMAT);
         let (face_id, face_id_view) = texture("FaceId::target", FACE_ID_FORMAT);
         let (position, position_view) = texture("Position::target", POSITION_FORMAT);
+        let (uv, uv_view) = texture("Position::uv_target", UV_FORMAT);
         let (_, depth_view) = texture("FaceId::depth", DEPTH_FORMAT);
         let (radiance, radiance_view) = texture("FinalRadiance::target", RADIANCE_FORMAT);
         let accum = device.create_buffer(&wgpu::BufferDescriptor {
@@ -100,6 +105,8 @@ impl Targets {
             face_id_view,
             position,
             position_view,
+            uv,
+            uv_view,
             depth_view,
             radiance,
             radiance_view,

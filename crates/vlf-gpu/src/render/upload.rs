@@ -1,26 +1,33 @@
 //! The light field uploaded for rendering. Validated on upload so user data can never make a pass
 //! read out of range.
 //!
-//! * Geometry and the direction set's sphere mesh: storage buffers, read by vertex shaders only
-//!   (a few invocations per triangle).
-//! * Per-pixel data of pass 5 — the radiance atlas and the face records — are 2D textures read
-//!   with `textureLoad`: on lavapipe a per-pixel, non-uniformly indexed storage-buffer read costs
-//!   several times a texel fetch (measured: reading one `vec4` per pixel from a storage buffer
-//!   took ~14 ms at 1024×768, a texture fetch a fraction of that).
+//! * Geometry, the triangles' corner uvs and the direction set's sphere mesh: storage buffers,
+//!   read by vertex shaders only (a few invocations per triangle).
+//! * Per-pixel data of pass 5 — the irradiance atlas, the face records and the textures — are
+//!   2D textures read with `textureLoad`: on lavapipe a per-pixel, non-uniformly indexed
+//!   storage-buffer read costs several times a texel fetch (measured: reading one `vec4` per
+//!   pixel from a storage buffer took ~14 ms at 1024×768, a texture fetch a fraction of that).
 //!
-//! Both textures are linear arrays wrapped into rows: element `i` is texel
+//! These textures are linear arrays wrapped into rows: element `i` is texel
 //! `(i % width, i / width)`.
 //!
-//! * Atlas ([`ATLAS_WIDTH`] wide): texel `i` = `LightField::radiance.get(i)`, uploaded in its
+//! * Atlas ([`ATLAS_WIDTH`] wide): texel `i` = `LightField::irradiance.get(i)`, uploaded in its
 //!   stored encoding with no decoding on the CPU ([`radiance_format`]): RGB9E5 as it is, into
 //!   an `Rgb9e5Ufloat` texture (4 bytes per texel, the file's bits); f16 RGB as an
 //!   `Rgba16Float` texture (8 bytes per texel: the file's halves copied next to a zero alpha,
 //!   as wgpu has no 3-channel half format). Texel fetches decode them exactly, so the shader
 //!   reads the same f32 values as `Radiance::get` and is the same for both.
 //! * Face records (`Rgba32Uint`, [`FACE_RECORD_TEXELS`] texels per face, [`FACES_PER_ROW`] faces
-//!   per row; floats stored as their bits):
-//!   0: normal.xyz, kind · 1: origin.xyz, texel_size · 2: u.xyz, width · 3: v.xyz, height ·
-//!   4: texel_base, 0, 0, 0.
+//!   per row; floats stored as their bits), the face's chart and its material joined
+//!   ([`face_record`]):
+//!   0: normal.xyz, kind | flags · 1: origin.xyz, texel_size · 2: u.xyz, width ·
+//!   3: v.xyz, height · 4: ρ_d/π (rgb), texel_base · 5: Le (rgb), 0 ·
+//!   6: base-colour texture, emissive texture, 0, 0. Pass 5 reads texels 0–4 of every face,
+//!   5 only for emitters and 6 only for textured faces ([`FLAG_DIFFUSE`] and the other flags).
+//! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
+//!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
+//!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
+//!   atlas); 1-texel dummies without textures.
 //! * Mirror tiles (scenes with mirror/mixed faces; 1-texel dummies otherwise):
 //!   - tile words (`Rgba32Uint`, [`ATLAS_WIDTH`] wide, one u32 per *channel*, i.e. word `k` is
 //!     channel `k % 4` of texel `k / 4`): a header `[l, m, n, face_slot_off, index_start_off,
@@ -30,7 +37,9 @@
 //!     (1-texel dummy without tiles);
 //!   - frames (`Rgba32Float`, 2 texels per fixed direction: u, v of its twisted PSF frame).
 
-use vlf_core::lightfield::{BakeFace, BakeTriangle, LightField, Radiance, RadianceEncoding};
+use vlf_core::lightfield::{
+    BakeFace, BakeTriangle, LightField, NO_TEXTURE, Radiance, RadianceEncoding, SurfaceMaterial,
+};
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
@@ -38,19 +47,31 @@ use super::RenderError;
 /// Width of the atlas texture (elements per row).
 pub const ATLAS_WIDTH: u32 = 4096;
 /// Texels per face record.
-pub const FACE_RECORD_TEXELS: u32 = 5;
+pub const FACE_RECORD_TEXELS: u32 = 7;
 /// Face records per row of the face texture.
 pub const FACES_PER_ROW: u32 = 1024;
+/// Face flags, in the face record's texel 0 w above the kind (which takes the low 8 bits):
+/// the face has a diffuse part (ρ_d ≠ 0), a base-colour texture, emission, an emissive
+/// texture.
+pub const FLAG_DIFFUSE: u32 = 0x100;
+pub const FLAG_BASE_TEXTURE: u32 = 0x200;
+pub const FLAG_EMISSIVE: u32 = 0x400;
+pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
     pub triangles: wgpu::Buffer,
     pub triangle_count: u32,
     pub face_count: u32,
+    /// `TEXCOORD_0` per triangle corner (vec2, three per triangle).
+    pub uvs: wgpu::Buffer,
     /// Face records (see the module docs).
     pub faces_view: wgpu::TextureView,
-    /// The radiance atlas (see the module docs).
+    /// The irradiance atlas (see the module docs).
     pub atlas_view: wgpu::TextureView,
+    /// Texture records and texels (see the module docs).
+    pub texture_records_view: wgpu::TextureView,
+    pub texels_view: wgpu::TextureView,
     /// Mirror tile index words, values and direction frames (see the module docs).
     pub tile_words_view: wgpu::TextureView,
     pub tile_values_view: wgpu::TextureView,
@@ -62,8 +83,10 @@ pub struct GpuLightField {
     pub sphere_triangle_count: u32,
     /// Bytes of all buffers and textures above.
     pub bytes: u64,
-    /// Bytes of the radiance textures (atlas and tile values).
+    /// Bytes of the light textures (atlas irradiance and tile values).
     pub radiance_bytes: u64,
+    /// Bytes of the surface textures (texels and records).
+    pub texture_bytes: u64,
 }
 
 /// The texture format the radiance of `encoding` is uploaded as (see the module docs).
@@ -74,15 +97,37 @@ pub fn radiance_format(encoding: RadianceEncoding) -> wgpu::TextureFormat {
     }
 }
 
-/// The face record texels of `f` (see the module docs).
-pub fn face_record(f: &BakeFace) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
+/// ρ_d / π of material `m` (the diffuse albedo factor over π), as the face record stores it.
+pub fn rho_over_pi(m: &SurfaceMaterial) -> glam::Vec3 {
+    m.diffuse_albedo() * std::f32::consts::FRAC_1_PI
+}
+
+/// The face record texels of `f` with its material `m` (see the module docs).
+pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
     let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
+    let rho = rho_over_pi(m);
+    let emissive = m.emission.iter().any(|&e| e > 0.0);
+    let mut flags = 0;
+    if rho.max_element() > 0.0 {
+        flags |= FLAG_DIFFUSE;
+        if m.base_color_texture != NO_TEXTURE {
+            flags |= FLAG_BASE_TEXTURE;
+        }
+    }
+    if emissive {
+        flags |= FLAG_EMISSIVE;
+        if m.emissive_texture != NO_TEXTURE {
+            flags |= FLAG_EMISSIVE_TEXTURE;
+        }
+    }
     [
-        b(f.normal, f.kind),
+        b(f.normal, f.kind | flags),
         b(f.origin, f.texel_size.to_bits()),
         b(f.u, f.width),
         b(f.v, f.height),
-        [f.texel_base, 0, 0, 0],
+        b(rho.into(), f.texel_base),
+        b(m.emission, 0),
+        [m.base_color_texture, m.emissive_texture, 0, 0],
     ]
 }
 
@@ -134,8 +179,14 @@ impl GpuLightField {
             .collect();
         let sphere_vertices = buffer("Renderer::sphere_vertices", bytemuck::cast_slice(&verts))?;
         let sphere_triangles = buffer("Renderer::sphere_triangles", bytemuck::cast_slice(&tris))?;
+        let uvs = buffer("Renderer::uvs", bytemuck::cast_slice(&lf.shading.uvs))?;
 
-        let records: Vec<[u32; 4]> = lf.faces.iter().flat_map(face_record).collect();
+        let sh = &lf.shading;
+        let records: Vec<[u32; 4]> = lf
+            .faces
+            .iter()
+            .flat_map(|f| face_record(f, &sh.materials[f.material as usize]))
+            .collect();
         let faces_view = wrapped_texture(
             device,
             queue,
@@ -149,11 +200,39 @@ impl GpuLightField {
         let atlas_view = radiance_texture(
             device,
             queue,
-            "Renderer::radiance_atlas",
-            &lf.radiance,
+            "Renderer::irradiance_atlas",
+            &lf.irradiance,
             &mut radiance_bytes,
         )?;
-        let no_tiles = Radiance::new(lf.radiance.encoding());
+        let mut texture_bytes = 0;
+        let texture_records: Vec<[u32; 4]> = sh
+            .textures
+            .iter()
+            .zip(sh.texture_offsets())
+            .map(|(t, first)| {
+                let wrap = t.wrap_s.id() | t.wrap_t.id() << 4;
+                // validate: every texel index fits a u32.
+                [first as u32, t.width, t.height, wrap]
+            })
+            .collect();
+        let texture_records_view = wrapped_texture(
+            device,
+            queue,
+            "Renderer::texture_records",
+            wgpu::TextureFormat::Rgba32Uint,
+            ATLAS_WIDTH,
+            bytemuck::cast_slice(&texture_records),
+            &mut texture_bytes,
+        )?;
+        let texels_view = radiance_texture(
+            device,
+            queue,
+            "Renderer::texels",
+            &sh.texels,
+            &mut texture_bytes,
+        )?;
+        bytes += texture_bytes;
+        let no_tiles = Radiance::new(lf.irradiance.encoding());
         let (words, values, frames) = match &lf.tiles {
             Some(t) => {
                 let ix = &t.index;
@@ -219,13 +298,17 @@ impl GpuLightField {
             triangles,
             triangle_count: lf.triangles.len() as u32,
             face_count: lf.faces.len() as u32,
+            uvs,
             faces_view,
             atlas_view,
+            texture_records_view,
+            texels_view,
             sphere_vertices,
             sphere_triangles,
             sphere_triangle_count: tris.len() as u32,
             bytes,
             radiance_bytes,
+            texture_bytes,
         })
     }
 }
@@ -397,14 +480,21 @@ fn validate(lf: &LightField) -> Result<(), RenderError> {
     let invalid = |msg: String| Err(RenderError::InvalidLightField(msg));
     if lf.faces.len() >= u32::MAX as usize / FACE_RECORD_TEXELS as usize
         || lf.triangles.len() > (u32::MAX / 3) as usize
-        || lf.radiance.len() > u32::MAX as usize
+        || lf.irradiance.len() > u32::MAX as usize
+        || lf.shading.texels.len() > u32::MAX as usize
     {
         return invalid(format!(
-            "{} faces / {} triangles / {} texels is more than the renderer can index",
+            "{} faces / {} triangles / {} atlas texels / {} texture texels is more than the \
+             renderer can index",
             lf.faces.len(),
             lf.triangles.len(),
-            lf.radiance.len()
+            lf.irradiance.len(),
+            lf.shading.texels.len()
         ));
+    }
+    // Materials, uvs and textures fit together (a LightField built in memory may not).
+    if let Err(e) = lf.shading.check(lf.triangles.len()) {
+        return invalid(e.to_string());
     }
     for (i, t) in lf.triangles.iter().enumerate() {
         if t.face as usize >= lf.faces.len() {
@@ -426,10 +516,17 @@ fn validate(lf: &LightField) -> Result<(), RenderError> {
                 f.width, f.height
             ));
         }
-        if end > lf.radiance.len() as u64 {
+        if end > lf.irradiance.len() as u64 {
             return invalid(format!(
-                "face {i} needs radiance texels up to {end} but the atlas has {}",
-                lf.radiance.len()
+                "face {i} needs atlas texels up to {end} but the atlas has {}",
+                lf.irradiance.len()
+            ));
+        }
+        if f.material as usize >= lf.shading.materials.len() {
+            return invalid(format!(
+                "face {i} names material {} but there are {}",
+                f.material,
+                lf.shading.materials.len()
             ));
         }
         if !(f.texel_size.is_finite() && f.texel_size > 0.0) {

@@ -55,13 +55,13 @@ use crate::lightfield::{BakeParams, TileIndex};
 use crate::psf::PsfGrid;
 use energy::power;
 
-/// The result of a propagation: outgoing radiance per texel (both sides), emission included.
+/// The result of a propagation: irradiance per texel (both sides) and the mirror tiles.
 #[derive(Clone, Debug)]
 pub struct Propagated {
-    /// Total outgoing radiance per texel (rgb, a = 0).
-    pub radiance: Vec<[f32; 4]>,
     /// Total irradiance per texel (rgb, a = 0), all iterations: what arrived at each texel side
-    /// from surfaces, sky and suns (the final gather reads the converged field through it).
+    /// from surfaces, sky and suns. The light field stores it (the renderer applies albedo and
+    /// emission per pixel); the final gather reads the converged field through it. The
+    /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it.
     pub irradiance: Vec<[f32; 4]>,
     /// Sparse tiles of non-diffuse faces and their total outgoing radiance (specular part).
     pub tiles: Option<(TileIndex, Vec<[f32; 4]>)>,
@@ -130,7 +130,6 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
     let mut unshot = scene.emission.clone();
-    let mut total = scene.emission.clone();
     let mut next = vec![[0f32; 4]; n_tex];
     let mut irradiance = vec![[0f32; 4]; n_tex];
     let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
@@ -199,7 +198,6 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
             100.0 * (e.sent - e.received - e.escaped) / e.sent.max(1e-30)
         );
         energy.record(&e);
-        accumulate(&mut total, &next);
         accumulate(&mut total_tiles, &next_tiles);
         std::mem::swap(&mut unshot, &mut next);
         std::mem::swap(&mut unshot_tiles, &mut next_tiles);
@@ -209,7 +207,6 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         }
     }
     Propagated {
-        radiance: total,
         irradiance,
         tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,

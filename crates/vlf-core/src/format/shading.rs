@@ -1,0 +1,138 @@
+//! The shading sections of a file: materials, triangle uvs, textures and their texels (see
+//! `lightfield::shading`), their on-disk types (converted field by field, like `disk`'s) and
+//! their conversion to and from a [`Shading`].
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::lightfield::{Radiance, Shading, SurfaceMaterial, SurfaceTexture};
+use crate::scene::WrapMode;
+
+/// A material's shading factors (40 bytes; every field a 4-byte little-endian word).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileMaterial {
+    pub base_color: [f32; 3],
+    pub diffuse_weight: f32,
+    pub emission: [f32; 3],
+    /// Index into the `textures` section, or `u32::MAX` for none.
+    pub base_color_texture: u32,
+    /// Index into the `textures` section, or `u32::MAX` for none.
+    pub emissive_texture: u32,
+    pub reserved: u32,
+}
+
+/// A triangle's `TEXCOORD_0` at its three corners (24 bytes: u0, v0, u1, v1, u2, v2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileUvs {
+    pub uv: [f32; 6],
+}
+
+/// A texture's size and wrap modes (16 bytes); its texels follow the previous textures' in
+/// the `texels` section.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileTexture {
+    pub width: u32,
+    pub height: u32,
+    /// [`WrapMode::id`]: 0 repeat, 1 clamp to edge, 2 mirrored repeat.
+    pub wrap_s: u32,
+    pub wrap_t: u32,
+}
+
+impl From<&SurfaceMaterial> for FileMaterial {
+    fn from(m: &SurfaceMaterial) -> Self {
+        FileMaterial {
+            base_color: m.base_color,
+            diffuse_weight: m.diffuse_weight,
+            emission: m.emission,
+            base_color_texture: m.base_color_texture,
+            emissive_texture: m.emissive_texture,
+            reserved: 0,
+        }
+    }
+}
+
+impl From<&FileMaterial> for SurfaceMaterial {
+    fn from(m: &FileMaterial) -> Self {
+        SurfaceMaterial {
+            base_color: m.base_color,
+            diffuse_weight: m.diffuse_weight,
+            emission: m.emission,
+            base_color_texture: m.base_color_texture,
+            emissive_texture: m.emissive_texture,
+        }
+    }
+}
+
+impl From<&[[f32; 2]; 3]> for FileUvs {
+    fn from(t: &[[f32; 2]; 3]) -> Self {
+        FileUvs {
+            uv: [t[0][0], t[0][1], t[1][0], t[1][1], t[2][0], t[2][1]],
+        }
+    }
+}
+
+impl From<&FileUvs> for [[f32; 2]; 3] {
+    fn from(t: &FileUvs) -> Self {
+        let u = t.uv;
+        [[u[0], u[1]], [u[2], u[3]], [u[4], u[5]]]
+    }
+}
+
+impl From<&SurfaceTexture> for FileTexture {
+    fn from(t: &SurfaceTexture) -> Self {
+        FileTexture {
+            width: t.width,
+            height: t.height,
+            wrap_s: t.wrap_s.id(),
+            wrap_t: t.wrap_t.id(),
+        }
+    }
+}
+
+/// The on-disk records of `s`: materials, uvs, textures (the texels are written as stored).
+pub(super) fn pack(s: &Shading) -> (Vec<FileMaterial>, Vec<FileUvs>, Vec<FileTexture>) {
+    (
+        s.materials.iter().map(FileMaterial::from).collect(),
+        s.uvs.iter().map(FileUvs::from).collect(),
+        s.textures.iter().map(FileTexture::from).collect(),
+    )
+}
+
+/// The shading of a file's sections; `Err` names a texture with an unknown wrap mode.
+pub(super) fn unpack(
+    materials: &[FileMaterial],
+    uvs: &[FileUvs],
+    textures: &[FileTexture],
+    texels: Radiance,
+) -> Result<Shading, (String, String)> {
+    let textures = textures
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let mode = |id| {
+                WrapMode::from_id(id).ok_or_else(|| {
+                    (
+                        format!("texture {i}"),
+                        format!(
+                            "unknown wrap mode {id} (0 repeat, 1 clamp to edge, 2 mirrored repeat)"
+                        ),
+                    )
+                })
+            };
+            Ok::<_, (String, String)>(SurfaceTexture {
+                width: t.width,
+                height: t.height,
+                wrap_s: mode(t.wrap_s)?,
+                wrap_t: mode(t.wrap_t)?,
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(Shading {
+        materials: materials.iter().map(SurfaceMaterial::from).collect(),
+        uvs: uvs.iter().map(<[[f32; 2]; 3]>::from).collect(),
+        textures,
+        texels,
+    })
+}

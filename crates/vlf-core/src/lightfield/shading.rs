@@ -1,0 +1,340 @@
+//! What shades a pixel besides the atlas. The atlas stores each texel's irradiance E, which
+//! varies slowly; the renderer applies the surface's own detail per pixel, as lightmappers do:
+//!
+//! ```text
+//! L = Le(uv) [front side only] + ρ_d(uv) / π · E(bilinear atlas) + specular tiles
+//! ρ_d = diffuse weight × baseColorFactor × baseColorTexture(uv)
+//! Le  = emission factor × emissiveTexture(uv)
+//! ```
+//!
+//! [`Shading`] holds what that needs: a [`SurfaceMaterial`] per material (faces name theirs in
+//! [`BakeFace::material`](super::BakeFace::material)), each triangle's `TEXCOORD_0` at its
+//! corners, and the textures ([`SurfaceTexture`] and their texels). Lookups are bilinear with
+//! the sampler's wrap modes and no mipmaps (`shared/reference/README.md`).
+//!
+//! **Texels are f16 RGB** (a [`Radiance`] in [`RadianceEncoding::RgbF16`]: 6 bytes per texel
+//! in memory and in the file, `Rgba16Float` on the GPU like the atlas), not the importer's f32
+//! RGBA (16 bytes):
+//!
+//! * alpha is dropped: vlf has no alpha blending or masking (`Material::base_color` ignores
+//!   alpha too);
+//! * f16 keeps every 8-bit sRGB source exactly enough: its rounding error (≤ 2⁻¹¹ relative,
+//!   0.05 %) is under a twentieth of the gap between the linear values of two adjacent sRGB
+//!   codes (≥ 0.9 % above code 10; absolute 3·10⁻⁴ below, where f16 is far finer), so every
+//!   code keeps a distinct value; 16-bit and float sources lose at most those 0.05 %, values
+//!   above 65504 are clamped;
+//! * storing the sources' sRGB bytes instead (4 bytes) would not hold 16-bit or float images
+//!   and would cost a decode (a `pow`) per texel fetch in the renderer's per-pixel pass.
+
+use glam::{Vec2, Vec3};
+
+use super::encoding::RadianceEncoding;
+use super::radiance::Radiance;
+use crate::scene::{Material, Scene, WrapMode};
+
+/// Texture index meaning "no texture" (reads 1).
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// Largest texture side the light field accepts (texels).
+pub const MAX_TEXTURE_SIDE: u32 = 1 << 16;
+
+/// The part of a material the renderer shades with (per-pixel diffuse and emission).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceMaterial {
+    /// Linear baseColorFactor (rgb).
+    pub base_color: [f32; 3],
+    /// Weight of the Lambertian lobe ([`Material::diffuse_weight`]: 1 diffuse, 0 mirror,
+    /// `1 − specular` mixed).
+    pub diffuse_weight: f32,
+    /// Emitted radiance factor (front side only).
+    pub emission: [f32; 3],
+    /// Index into [`Shading::textures`] of the base-colour texture, or [`NO_TEXTURE`].
+    pub base_color_texture: u32,
+    /// Index into [`Shading::textures`] of the emissive texture, or [`NO_TEXTURE`].
+    pub emissive_texture: u32,
+}
+
+impl SurfaceMaterial {
+    /// From an imported material.
+    pub fn from_material(m: &Material) -> Self {
+        SurfaceMaterial {
+            base_color: m.base_color.into(),
+            diffuse_weight: m.diffuse_weight(),
+            emission: m.emission.into(),
+            base_color_texture: m.base_color_texture.map_or(NO_TEXTURE, |t| t.index),
+            emissive_texture: m.emissive_texture.map_or(NO_TEXTURE, |t| t.index),
+        }
+    }
+
+    /// The diffuse albedo factor `diffuse weight × baseColorFactor` (times the base-colour
+    /// texture, where there is one).
+    pub fn diffuse_albedo(&self) -> Vec3 {
+        Vec3::from(self.base_color) * self.diffuse_weight
+    }
+}
+
+/// A texture's size and sampler (its texels are in [`Shading::texels`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SurfaceTexture {
+    pub width: u32,
+    pub height: u32,
+    pub wrap_s: WrapMode,
+    pub wrap_t: WrapMode,
+}
+
+impl SurfaceTexture {
+    /// Texels of the texture.
+    pub fn texel_count(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
+    }
+}
+
+/// Materials, uvs and textures of a light field (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shading {
+    pub materials: Vec<SurfaceMaterial>,
+    /// `TEXCOORD_0` at the three corners of each triangle, in the order of
+    /// [`LightField::triangles`](super::LightField::triangles) (zeros where the mesh has none).
+    pub uvs: Vec<[[f32; 2]; 3]>,
+    pub textures: Vec<SurfaceTexture>,
+    /// Linear RGB of every texture's texels, f16: the textures one after another in
+    /// `textures` order, each row-major with row 0 the top of the image (glTF uv (0, 0) is its
+    /// top-left corner).
+    pub texels: Radiance,
+}
+
+/// Materials, uvs or textures that do not fit together ([`Shading::check`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{element}: {reason}")]
+pub struct InvalidShading {
+    /// E.g. `material 3`, `uvs of triangle 7`, `texture 1`.
+    pub element: String,
+    pub reason: String,
+}
+
+impl Shading {
+    /// No materials, textures or uvs.
+    pub fn empty() -> Self {
+        Shading {
+            materials: Vec::new(),
+            uvs: Vec::new(),
+            textures: Vec::new(),
+            texels: Radiance::new(RadianceEncoding::RgbF16),
+        }
+    }
+
+    /// The scene's materials, triangle uvs (non-finite ones as 0) and textures (non-finite
+    /// texels as 0, with a warning: no encoding stores them).
+    pub fn from_scene(scene: &Scene) -> Self {
+        let uvs = scene
+            .triangles
+            .iter()
+            .map(|t| {
+                t.uv.map(|uv| {
+                    let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
+                    uv.to_array()
+                })
+            })
+            .collect();
+        let mut values = Vec::new();
+        let mut non_finite = 0usize;
+        for t in &scene.textures {
+            let n = t.width as usize * t.height as usize;
+            values.extend(t.pixels.iter().take(n).map(|p| {
+                let v = p.truncate();
+                if v.is_finite() {
+                    v.extend(0.0).to_array()
+                } else {
+                    non_finite += 1;
+                    let fix = |c: f32| if c.is_finite() { c } else { 0.0 };
+                    [fix(v.x), fix(v.y), fix(v.z), 0.0]
+                }
+            }));
+            // A decoded image shorter than its size (the importer rejects those) reads 1.
+            values.resize(values.len() + n.saturating_sub(t.pixels.len()), [1.0; 4]);
+        }
+        if non_finite > 0 {
+            log::warn!("{non_finite} texture texels are not finite; stored as 0");
+        }
+        Shading {
+            materials: scene
+                .materials
+                .iter()
+                .map(SurfaceMaterial::from_material)
+                .collect(),
+            uvs,
+            textures: scene
+                .textures
+                .iter()
+                .map(|t| SurfaceTexture {
+                    width: t.width,
+                    height: t.height,
+                    wrap_s: t.wrap_s,
+                    wrap_t: t.wrap_t,
+                })
+                .collect(),
+            texels: Radiance::from_f32(&values, RadianceEncoding::RgbF16)
+                .expect("non-finite texels were replaced"),
+        }
+    }
+
+    /// Index of the first texel of each texture in [`texels`](Self::texels).
+    pub fn texture_offsets(&self) -> Vec<u64> {
+        let mut first = 0u64;
+        self.textures
+            .iter()
+            .map(|t| {
+                let f = first;
+                first = first.saturating_add(t.texel_count());
+                f
+            })
+            .collect()
+    }
+
+    /// Bytes of materials, uvs and textures in memory.
+    pub fn byte_len(&self) -> usize {
+        size_of_val(self.materials.as_slice())
+            + size_of_val(self.uvs.as_slice())
+            + size_of_val(self.textures.as_slice())
+            + self.texels.byte_len()
+    }
+
+    /// Checks that the parts fit together for a light field of `triangles` triangles: one uv
+    /// triple per triangle, all finite; materials finite and non-negative, diffuse weights in
+    /// [0, 1], texture indices in range; textures of 1..=[`MAX_TEXTURE_SIDE`] texels per side
+    /// whose texels add up to `texels`, stored in f16.
+    pub fn check(&self, triangles: usize) -> Result<(), InvalidShading> {
+        let bad = |element: String, reason: String| Err(InvalidShading { element, reason });
+        if self.uvs.len() != triangles {
+            return bad(
+                "uvs".into(),
+                format!("{} uv triples for {triangles} triangles", self.uvs.len()),
+            );
+        }
+        if let Some(i) = self
+            .uvs
+            .iter()
+            .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
+        {
+            return bad(format!("uvs of triangle {i}"), "non-finite value".into());
+        }
+        let n_tex = self.textures.len();
+        for (i, m) in self.materials.iter().enumerate() {
+            let el = || format!("material {i}");
+            let colours = m.base_color.iter().chain(&m.emission);
+            if !colours.clone().all(|x| x.is_finite() && *x >= 0.0) {
+                return bad(
+                    el(),
+                    "colour factors must be finite and non-negative".into(),
+                );
+            }
+            if !(0.0..=1.0).contains(&m.diffuse_weight) {
+                return bad(
+                    el(),
+                    format!("diffuse weight {} is not in [0, 1]", m.diffuse_weight),
+                );
+            }
+            for (slot, t) in [
+                ("base-colour", m.base_color_texture),
+                ("emissive", m.emissive_texture),
+            ] {
+                if t != NO_TEXTURE && t as usize >= n_tex {
+                    return bad(
+                        el(),
+                        format!("{slot} texture {t} is out of range ({n_tex} textures)"),
+                    );
+                }
+            }
+        }
+        let mut total = 0u64;
+        for (i, t) in self.textures.iter().enumerate() {
+            let ok = |s: u32| (1..=MAX_TEXTURE_SIDE).contains(&s);
+            if !ok(t.width) || !ok(t.height) {
+                return bad(
+                    format!("texture {i}"),
+                    format!(
+                        "size {} × {} is outside 1..={MAX_TEXTURE_SIDE} per side",
+                        t.width, t.height
+                    ),
+                );
+            }
+            total += t.texel_count();
+        }
+        if total != self.texels.len() as u64 {
+            return bad(
+                "textures".into(),
+                format!(
+                    "{} textures need {total} texels, but there are {}",
+                    n_tex,
+                    self.texels.len()
+                ),
+            );
+        }
+        if self.texels.encoding() != RadianceEncoding::RgbF16 {
+            return bad(
+                "texels".into(),
+                format!("stored as {}, not rgb16f", self.texels.encoding().name()),
+            );
+        }
+        Ok(())
+    }
+
+    /// Texture `t` at glTF `uv`, bilinear with its wrap modes, in f32: the renderer's lookup
+    /// (`shaders/common/texture.wgsl`), of which this is the CPU mirror. Per axis: the
+    /// coordinate, clamped to ±10⁹, is reduced to one period unless the mode clamps
+    /// (`u − p·floor(u/p)`, p = 1 for repeat, 2 for mirrored repeat); texel coordinate
+    /// `x = u × size − ½` (clamped to ±10⁹); texels `floor(x)` and `floor(x) + 1`, wrapped;
+    /// weight `x − floor(x)`. The same texels and weights as `scene::Texture::bilinear` up to
+    /// the rounding of the reduction. [`NO_TEXTURE`] reads 1. Panics if `t` is out of range
+    /// (see [`check`](Self::check)).
+    pub fn sample(&self, t: u32, uv: Vec2, offsets: &[u64]) -> Vec3 {
+        if t == NO_TEXTURE {
+            return Vec3::ONE;
+        }
+        let tex = &self.textures[t as usize];
+        let first = offsets[t as usize];
+        let (i0, i1, fx) = texel_axis(uv.x, tex.width, tex.wrap_s);
+        let (j0, j1, fy) = texel_axis(uv.y, tex.height, tex.wrap_t);
+        let texel = |i: u32, j: u32| {
+            let k = first + u64::from(j) * u64::from(tex.width) + u64::from(i);
+            Vec3::from(self.texels.get(k as usize))
+        };
+        let top = texel(i0, j0).lerp(texel(i1, j0), fx);
+        let bottom = texel(i0, j1).lerp(texel(i1, j1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+/// One axis of [`Shading::sample`]: the wrapped indices of the two texels around the sample
+/// point and the weight of the second (`texel_axis` of `shaders/common/texture.wgsl`).
+fn texel_axis(u: f32, size: u32, mode: WrapMode) -> (u32, u32, f32) {
+    let mut r = u.clamp(-1e9, 1e9);
+    if mode != WrapMode::ClampToEdge {
+        let p = if mode == WrapMode::MirroredRepeat {
+            2.0
+        } else {
+            1.0
+        };
+        r -= p * (r / p).floor();
+    }
+    let x = (r * size as f32 - 0.5).clamp(-1e9, 1e9);
+    let x0 = x.floor();
+    let i = x0 as i32;
+    let n = size as i32;
+    let wrap = |i: i32| -> u32 {
+        if mode == WrapMode::ClampToEdge {
+            return i.clamp(0, n - 1) as u32;
+        }
+        let period = if mode == WrapMode::MirroredRepeat {
+            2 * n
+        } else {
+            n
+        };
+        let mut m = if i < 0 { i + period } else { i };
+        if m >= period {
+            m -= period;
+        }
+        (if m >= n { 2 * n - 1 - m } else { m }) as u32
+    };
+    (wrap(i), wrap(i + 1), x - x0)
+}
