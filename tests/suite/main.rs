@@ -8,4 +8,5 @@ mod pathtrace_gpu;
 mod radiosity_gpu;
 mod render;
 mod render_encoding;
+mod render_textures;
 mod stability_gpu;

@@ -338,3 +338,78 @@ fn texel_axis(u: f32, size: u32, mode: WrapMode) -> (u32, u32, f32) {
     };
     (wrap(i), wrap(i + 1), x - x0)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{FilterMode, Texture};
+    use glam::Vec4;
+
+    /// `sample` reads the same texels with the same weights as `Texture::bilinear` (the spec of
+    /// the bake and the path tracer), up to the rounding of its reduction to one period, for
+    /// every wrap mode, far outside [0, 1] too.
+    #[test]
+    fn sample_agrees_with_the_importers_bilinear_lookup() {
+        let (w, h) = (5u32, 3u32);
+        let pixels: Vec<Vec4> = (0..w * h)
+            .map(|i| Vec4::new(i as f32, (i * 7 % 11) as f32, (i % 2) as f32, 1.0))
+            .collect();
+        let mut s = 0x1234_5678u32;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 17;
+            s ^= s << 5;
+            s as f32 / u32::MAX as f32
+        };
+        for wrap_s in WrapMode::ALL {
+            for wrap_t in WrapMode::ALL {
+                let tex = Texture {
+                    name: None,
+                    width: w,
+                    height: h,
+                    pixels: pixels.clone(),
+                    has_alpha: false,
+                    wrap_s,
+                    wrap_t,
+                    filter: FilterMode::Nearest,
+                    gltf_texture: 0,
+                };
+                let values: Vec<[f32; 4]> = pixels.iter().map(|p| p.to_array()).collect();
+                let shading = Shading {
+                    textures: vec![SurfaceTexture {
+                        width: w,
+                        height: h,
+                        wrap_s,
+                        wrap_t,
+                    }],
+                    // Small integers: exact in f16.
+                    texels: Radiance::from_f32(&values, RadianceEncoding::RgbF16).unwrap(),
+                    ..Shading::empty()
+                };
+                let offsets = shading.texture_offsets();
+                for k in 0..2000 {
+                    let span = [1.0, 4.0, 300.0][k % 3];
+                    let uv = Vec2::new(rnd() - 0.5, rnd() - 0.5) * 2.0 * span;
+                    let got = shading.sample(0, uv, &offsets);
+                    let want = tex.bilinear(uv).truncate();
+                    // Values up to 14; the reduction moves a weight by a few ulps of `span`.
+                    let tol = 14.0 * span * w as f32 * 4e-7;
+                    assert!(
+                        (got - want).abs().max_element() <= tol,
+                        "{wrap_s:?}/{wrap_t:?} at {uv}: {got} vs {want}"
+                    );
+                }
+                // Texel centres read their texel exactly.
+                for (i, p) in pixels.iter().enumerate() {
+                    let (x, y) = (i as u32 % w, i as u32 / w);
+                    let uv = Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+                    assert_eq!(shading.sample(0, uv, &offsets), p.truncate());
+                }
+            }
+        }
+        assert_eq!(
+            Shading::empty().sample(NO_TEXTURE, Vec2::ZERO, &[]),
+            Vec3::ONE
+        );
+    }
+}
