@@ -133,7 +133,7 @@ pub fn chart_coords(f: &BakeFace, p: Vec3) -> Vec2 {
 
 /// A per-texel quantity of face `f` on `side`, read bilinearly at plane point `p` with texel
 /// indices clamped to the chart (never across faces or sides): the filter the renderer applies
-/// to the atlas (`render_final_radiance.wgsl`, `diffuse_radiance`).
+/// to the atlas (`render_final_radiance.wgsl`, `atlas_irradiance`).
 pub fn chart_bilinear(f: &BakeFace, values: &[[f32; 4]], side: u32, p: Vec3) -> Vec3 {
     let c = chart_coords(f, p) - Vec2::splat(0.5);
     let (x0, y0) = (c.x.floor(), c.y.floor());
