@@ -1,9 +1,13 @@
-use super::upload::{ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW};
+use super::upload::{
+    ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_DIFFUSE,
+    FLAG_EMISSIVE, FLAG_EMISSIVE_TEXTURE,
+};
+use vlf_core::scene::WrapMode;
 use crate::shaders::{self, constant};
 use wgpu::naga::Literal;
 
-/// The texture layouts of `upload.rs` are the ones pass 5 reads, and the no-face id is the one
-/// pass 3 writes.
+/// The texture layouts and face flags of `upload.rs` are the ones pass 5 reads, the wrap-mode
+/// ids the ones `common/texture.wgsl` knows, and the no-face id is the one pass 3 writes.
 #[test]
 fn shader_layout_constants_match_rust() {
     let module = shaders::RENDER_FINAL_RADIANCE.validate().unwrap();
@@ -12,6 +16,13 @@ fn shader_layout_constants_match_rust() {
         ("FACE_RECORD_TEXELS", FACE_RECORD_TEXELS),
         ("FACES_PER_ROW", FACES_PER_ROW),
         ("NO_FACE", super::NO_FACE),
+        ("FLAG_DIFFUSE", FLAG_DIFFUSE),
+        ("FLAG_BASE_TEXTURE", FLAG_BASE_TEXTURE),
+        ("FLAG_EMISSIVE", FLAG_EMISSIVE),
+        ("FLAG_EMISSIVE_TEXTURE", FLAG_EMISSIVE_TEXTURE),
+        ("WRAP_REPEAT", WrapMode::Repeat.id()),
+        ("WRAP_CLAMP_TO_EDGE", WrapMode::ClampToEdge.id()),
+        ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),
     ] {
         assert_eq!(
             constant(&module, name),
