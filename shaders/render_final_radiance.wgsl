@@ -29,6 +29,12 @@
 // with several jittered samples (sample_count > 1) also accumulate it into `accum` with weight
 // sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
 // pixel holds the mean over its square.
+//
+// In the window (fs_present), textured light fields are drawn in two parts where the device
+// has a stencil for it (vlf_gpu::render::final_radiance): pixels showing a textured face (pass
+// 3 marked them in the stencil) with the texture code, the others without (BASE_TEXTURES and
+// EMISSIVE_TEXTURES false), so that only they pay for it: llvmpipe runs divergent branches
+// under a mask, but skips a block of pixels that all fail the stencil test.
 
 #import "common/render_globals.wgsl"
 #import "common/fullscreen.wgsl"
@@ -48,10 +54,11 @@ const FLAG_DIFFUSE: u32 = 0x100u;
 const FLAG_BASE_TEXTURE: u32 = 0x200u;
 const FLAG_EMISSIVE: u32 = 0x400u;
 const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
-// Whether the light field has textures at all. A pipeline constant rather than a flag: llvmpipe
-// runs divergent branches under a mask at every pixel, so without textures the texture code is
-// compiled out instead of skipped.
-override TEXTURED: bool = true;
+// Whether the pixels this pipeline shades may show base-colour / emissive textures. Pipeline
+// constants rather than flags: llvmpipe runs divergent branches under a mask at every pixel, so
+// texture code no pixel needs is compiled out instead of skipped.
+override BASE_TEXTURES: bool = true;
+override EMISSIVE_TEXTURES: bool = true;
 
 @group(1) @binding(0) var direction_ids: texture_2d<u32>;
 @group(1) @binding(1) var barycentrics: texture_2d<f32>;
@@ -262,7 +269,8 @@ fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) 
 // Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` on `side`. Mirrored
 // exactly on the CPU by vlf_gpu::render::final_radiance::surface_radiance.
 fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
-    let textured = TEXTURED && (f.flags & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE)) != 0u;
+    let textured = (BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u)
+        || (EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u);
     var uv = vec2<f32>(0.0);
     var tex = vec2<u32>(0u);
     if textured {
@@ -272,14 +280,14 @@ fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) 
     var l = vec3<f32>(0.0);
     if (f.flags & FLAG_DIFFUSE) != 0u {
         var rho = f.rho_over_pi;
-        if TEXTURED && (f.flags & FLAG_BASE_TEXTURE) != 0u {
+        if BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u {
             rho = rho * surface_texture(tex.x, uv);
         }
         l = rho * atlas_irradiance(f, side, p);
     }
     if side == 0u && (f.flags & FLAG_EMISSIVE) != 0u {
         var le = bitcast<vec3<f32>>(face_texel(face, 5u).xyz);
-        if TEXTURED && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u {
+        if EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u {
             le = le * surface_texture(tex.y, uv);
         }
         l = l + le;
@@ -309,8 +317,14 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
         }
         hit = 1.0;
     }
-    let sample = vec4<f32>(l, hit);
+    return vec4<f32>(l, hit);
+}
+
+@fragment
+fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    let sample = shade(frag);
     if g.sample_count > 1u {
+        let pu = vec2<u32>(frag.xy);
         let i = pu.y * g.width + pu.x;
         if g.sample_index == 0u {
             accum[i] = sample * g.sample_weight;
@@ -321,11 +335,6 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
     return sample;
 }
 
-@fragment
-fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
-    return shade(frag);
-}
-
 struct Presented {
     @location(0) radiance: vec4<f32>,
     @location(1) colour: vec4<f32>,
@@ -333,7 +342,8 @@ struct Presented {
 
 // Pass 5 fused with the display of the final image (window): the radiance target as in
 // fs_main, plus the exposed, tonemapped, encoded colour on the window's surface. Saves a
-// full-screen pass that would only read the radiance back.
+// full-screen pass that would only read the radiance back. One sample per pixel, so it writes
+// no memory besides its targets, which lets the stencil test run before the shader (below).
 @fragment
 fn fs_present(@builtin(position) frag: vec4<f32>) -> Presented {
     let s = shade(frag);

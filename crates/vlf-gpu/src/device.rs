@@ -16,7 +16,11 @@ use std::sync::{Arc, Mutex};
 pub const REQUIRED_FEATURES: wgpu::Features = wgpu::Features::FLOAT32_FILTERABLE;
 
 /// Features used when present, never needed for correctness.
-pub const OPTIONAL_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY;
+///
+/// `DEPTH32FLOAT_STENCIL8`: the renderer marks textured faces in a stencil beside its f32
+/// depth, so that untextured ones skip the texture code (`render::final_radiance`).
+pub const OPTIONAL_FEATURES: wgpu::Features =
+    wgpu::Features::TIMESTAMP_QUERY.union(wgpu::Features::DEPTH32FLOAT_STENCIL8);
 
 /// The minimum limits vlf needs; anything the adapter offers beyond this (buffer sizes in
 /// particular) is requested too so large bakes can use the whole device.

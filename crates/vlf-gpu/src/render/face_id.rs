@@ -1,8 +1,11 @@
 //! Pass 3: face id of the visible surface. The scene's triangles drawn with the camera,
 //! depth-tested (reverse-Z, depth written), no culling; background = [`super::NO_FACE`].
+//! With a stencil ([`DEPTH_STENCIL_FORMAT`]) the triangles of textured faces are drawn
+//! separately with stencil reference [`TEXTURED_STENCIL`], replaced wherever depth passes, so
+//! the stencil ends up marking the pixels whose visible face is textured (0 elsewhere).
 //! Shader: `shaders/render_face_id.wgsl`.
 
-use super::targets::{DEPTH_FORMAT, FACE_ID_FORMAT, Targets};
+use super::targets::{DEPTH_STENCIL_FORMAT, FACE_ID_FORMAT, TEXTURED_STENCIL, Targets};
 use super::upload::GpuLightField;
 use super::{NO_FACE, geometry_pass_layout, geometry_pipeline};
 use crate::shaders;
@@ -10,20 +13,40 @@ use crate::shaders;
 pub struct FaceIdPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
+    /// Whether the depth buffer has a stencil to mark textured faces in.
+    stencil: bool,
 }
 
 impl FaceIdPass {
+    /// `depth_format`: `DEPTH_FORMAT`, or [`DEPTH_STENCIL_FORMAT`] to mark textured faces.
     pub fn new(
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
+        depth_format: wgpu::TextureFormat,
     ) -> Self {
         let (pass_layout, bind_group) = geometry_pass_layout(device, "FaceId", &[&lf.triangles]);
+        let stencil = depth_format == DEPTH_STENCIL_FORMAT;
+        let replace = wgpu::StencilFaceState {
+            compare: wgpu::CompareFunction::Always,
+            fail_op: wgpu::StencilOperation::Keep,
+            depth_fail_op: wgpu::StencilOperation::Keep,
+            pass_op: wgpu::StencilOperation::Replace,
+        };
         let depth = wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
+            format: depth_format,
             depth_write_enabled: Some(true),
             depth_compare: Some(wgpu::CompareFunction::Greater),
-            stencil: Default::default(),
+            stencil: if stencil {
+                wgpu::StencilState {
+                    front: replace,
+                    back: replace,
+                    read_mask: 0xff,
+                    write_mask: 0xff,
+                }
+            } else {
+                Default::default()
+            },
             bias: Default::default(),
         };
         let pipeline = geometry_pipeline(
@@ -38,10 +61,12 @@ impl FaceIdPass {
         Self {
             pipeline,
             bind_group,
+            stencil,
         }
     }
 
-    /// Clears face ids to [`NO_FACE`] and depth to 0 (infinitely far), then draws the scene.
+    /// Clears face ids to [`NO_FACE`], depth to 0 (infinitely far) and the stencil to 0, then
+    /// draws the scene (with a stencil: untextured faces, then textured ones).
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -65,7 +90,10 @@ impl FaceIdPass {
                     load: wgpu::LoadOp::Clear(0.0),
                     store: wgpu::StoreOp::Store,
                 }),
-                stencil_ops: None,
+                stencil_ops: self.stencil.then_some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0),
+                    store: wgpu::StoreOp::Store,
+                }),
             }),
             timestamp_writes: timestamps,
             occlusion_query_set: None,
@@ -74,6 +102,13 @@ impl FaceIdPass {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, globals, &[]);
         pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.draw(0..lf.triangle_count * 3, 0..1);
+        if self.stencil {
+            pass.set_stencil_reference(0);
+            pass.draw(0..lf.first_textured * 3, 0..1);
+            pass.set_stencil_reference(TEXTURED_STENCIL);
+            pass.draw(lf.first_textured * 3..lf.triangle_count * 3, 0..1);
+        } else {
+            pass.draw(0..lf.triangle_count * 3, 0..1);
+        }
     }
 }

@@ -25,6 +25,22 @@
 //! sample 0 overwrites it, later samples add with weight `1 / sample_count`, giving the mean
 //! over the sub-pixel samples.
 //!
+//! Texture cost: llvmpipe runs both sides of a divergent branch under a mask at every pixel,
+//! so skipping the texture code for untextured faces takes more than a branch:
+//!
+//! * the shader's constants `BASE_TEXTURES` and `EMISSIVE_TEXTURES` compile out the code of the
+//!   kinds of texture the light field does not use ([`TextureKinds`]);
+//! * with textures, in the window ([`FinalRadiancePass::encode_present`]) and where the device
+//!   has a depth-stencil format for it ([`super::targets::DEPTH_STENCIL_FORMAT`]), pass 3
+//!   marks the pixels showing a textured face in the stencil and this pass draws twice, with
+//!   stencil tests: a pipeline without texture code on the unmarked pixels (untextured faces
+//!   and background), one with it on the marked ones. llvmpipe tests the stencil
+//!   before running a shader that writes nothing but its targets, and skips a block of pixels
+//!   that all fail, so untextured faces pay for no texture code. Stills and debug views
+//!   ([`FinalRadiancePass::encode`], `fs_main`) draw once with the texture code: their
+//!   shader writes the accumulation buffer, and a shader with such side effects runs (and
+//!   writes) whatever the stencil says.
+//!
 //! Fused display (window): [`FinalRadiancePass::encode_present`] also writes the exposed,
 //! tonemapped colour straight onto the window's surface as a second colour target, instead of a
 //! separate display pass reading the radiance back: 37.5 → 30.2 ms per frame on lavapipe at
@@ -35,31 +51,68 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
-use super::targets::{RADIANCE_FORMAT, Targets};
-use super::upload::{GpuLightField, rho_over_pi};
+use super::targets::{DEPTH_STENCIL_FORMAT, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets};
+use super::upload::{
+    FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi,
+};
 use super::{storage_entry, texture_entry};
 use crate::shaders;
+
+/// The kinds of texture a light field's faces read (faces with a diffuse part and a
+/// base-colour texture, emitters with an emissive texture).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureKinds {
+    pub base: bool,
+    pub emissive: bool,
+}
+
+impl TextureKinds {
+    pub fn of(lf: &LightField) -> Self {
+        let mut k = TextureKinds::default();
+        for f in &lf.faces {
+            let flags = face_flags(&lf.shading.materials[f.material as usize]);
+            k.base |= flags & FLAG_BASE_TEXTURE != 0;
+            k.emissive |= flags & FLAG_EMISSIVE_TEXTURE != 0;
+        }
+        k
+    }
+
+    pub fn any(self) -> bool {
+        self.base || self.emissive
+    }
+}
+
+/// One draw of the pass: the shader's texture constants and, with a stencil, the stencil
+/// value of the pixels it shades.
+#[derive(Clone, Copy, Debug)]
+struct Variant {
+    textures: TextureKinds,
+    stencil: Option<u32>,
+}
 
 pub struct FinalRadiancePass {
     pass_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
-    /// The shader's `TEXTURED` constant: whether the light field has textures.
-    textured: bool,
+    /// The draw of stills and debug views (one, without stencil).
+    variant: Variant,
     /// Radiance target only (stills, debug views).
     pipeline: wgpu::RenderPipeline,
-    /// Radiance target + the window's surface, one per surface format.
-    present_pipelines: HashMap<wgpu::TextureFormat, wgpu::RenderPipeline>,
+    /// The draws of the window's final image, in order (see the module docs).
+    present_variants: Vec<Variant>,
+    /// Radiance target + the window's surface, one per surface format and present variant.
+    present_pipelines: HashMap<wgpu::TextureFormat, Vec<wgpu::RenderPipeline>>,
 }
 
 impl FinalRadiancePass {
-    /// `textured`: whether the light field has textures; without, the texture code is
-    /// compiled out of the pipelines (the shader's `TEXTURED` constant), as llvmpipe would
-    /// otherwise run it under a mask at every pixel.
+    /// `textures`: the kinds of texture the light field's faces read; `depth_format`: that of
+    /// passes 3–4, [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured faces in the stencil
+    /// (see the module docs).
     pub fn new(
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
-        textured: bool,
+        textures: TextureKinds,
+        depth_format: wgpu::TextureFormat,
     ) -> Self {
         let vis = wgpu::ShaderStages::FRAGMENT;
         let unfiltered = wgpu::TextureSampleType::Float { filterable: false };
@@ -87,13 +140,32 @@ impl FinalRadiancePass {
             immediate_size: 0,
         });
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
-        let pipeline = Self::create_pipeline(device, &pipeline_layout, &module, textured, None);
+        let variant = Variant {
+            textures,
+            stencil: None,
+        };
+        let present_variants = if textures.any() && depth_format == DEPTH_STENCIL_FORMAT {
+            vec![
+                Variant {
+                    textures: TextureKinds::default(),
+                    stencil: Some(0),
+                },
+                Variant {
+                    textures,
+                    stencil: Some(TEXTURED_STENCIL),
+                },
+            ]
+        } else {
+            vec![variant]
+        };
+        let pipeline = Self::create_pipeline(device, &pipeline_layout, &module, variant, None);
         Self {
             pass_layout,
             pipeline_layout,
             module,
-            textured,
+            variant,
             pipeline,
+            present_variants,
             present_pipelines: HashMap::new(),
         }
     }
@@ -102,10 +174,32 @@ impl FinalRadiancePass {
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
         module: &wgpu::ShaderModule,
-        textured: bool,
+        variant: Variant,
         present: Option<wgpu::TextureFormat>,
     ) -> wgpu::RenderPipeline {
-        let constants = [("TEXTURED", f64::from(u8::from(textured)))];
+        let flag = |b: bool| f64::from(u8::from(b));
+        let constants = [
+            ("BASE_TEXTURES", flag(variant.textures.base)),
+            ("EMISSIVE_TEXTURES", flag(variant.textures.emissive)),
+        ];
+        let equal = wgpu::StencilFaceState {
+            compare: wgpu::CompareFunction::Equal,
+            fail_op: wgpu::StencilOperation::Keep,
+            depth_fail_op: wgpu::StencilOperation::Keep,
+            pass_op: wgpu::StencilOperation::Keep,
+        };
+        let depth_stencil = variant.stencil.map(|_| wgpu::DepthStencilState {
+            format: DEPTH_STENCIL_FORMAT,
+            depth_write_enabled: Some(false),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: wgpu::StencilState {
+                front: equal,
+                back: equal,
+                read_mask: 0xff,
+                write_mask: 0,
+            },
+            bias: Default::default(),
+        });
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -132,7 +226,7 @@ impl FinalRadiancePass {
                 buffers: &[],
             },
             primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
+            depth_stencil,
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module,
@@ -198,8 +292,10 @@ impl FinalRadiancePass {
         ))];
         Self::draw(
             encoder,
-            &self.pipeline,
+            &[self.variant],
+            std::slice::from_ref(&self.pipeline),
             &attachments,
+            targets,
             globals,
             bind_group,
             timestamps,
@@ -220,15 +316,21 @@ impl FinalRadiancePass {
         format: wgpu::TextureFormat,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let pipeline = self.present_pipelines.entry(format).or_insert_with(|| {
-            Self::create_pipeline(
-                device,
-                &self.pipeline_layout,
-                &self.module,
-                self.textured,
-                Some(format),
-            )
-        });
+        if !self.present_pipelines.contains_key(&format) {
+            let pipelines = (self.present_variants.iter())
+                .map(|v| {
+                    Self::create_pipeline(
+                        device,
+                        &self.pipeline_layout,
+                        &self.module,
+                        *v,
+                        Some(format),
+                    )
+                })
+                .collect();
+            self.present_pipelines.insert(format, pipelines);
+        }
+        let pipelines = &self.present_pipelines[&format];
         let attachments = [
             Some(super::color_attachment(
                 &targets.radiance_view,
@@ -238,34 +340,52 @@ impl FinalRadiancePass {
         ];
         Self::draw(
             encoder,
-            pipeline,
+            &self.present_variants,
+            pipelines,
             &attachments,
+            targets,
             globals,
             bind_group,
             timestamps,
         );
     }
 
+    /// One render pass drawing the viewport-covering triangle once per variant of `variants`
+    /// (with its pipeline from `pipelines` and its stencil reference; the depth-stencil buffer
+    /// read only).
+    #[allow(clippy::too_many_arguments)]
     fn draw(
         encoder: &mut wgpu::CommandEncoder,
-        pipeline: &wgpu::RenderPipeline,
+        variants: &[Variant],
+        pipelines: &[wgpu::RenderPipeline],
         attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
+        targets: &Targets,
         globals: &wgpu::BindGroup,
         bind_group: &wgpu::BindGroup,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
+        let stencil = variants.iter().any(|v| v.stencil.is_some());
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("FinalRadiance::pass"),
             color_attachments: attachments,
-            depth_stencil_attachment: None,
+            depth_stencil_attachment: stencil.then_some(wgpu::RenderPassDepthStencilAttachment {
+                view: &targets.depth_view,
+                depth_ops: None,
+                stencil_ops: None,
+            }),
             timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, globals, &[]);
         pass.set_bind_group(1, bind_group, &[]);
-        pass.draw(0..3, 0..1);
+        for (v, pipeline) in variants.iter().zip(pipelines) {
+            pass.set_pipeline(pipeline);
+            if let Some(r) = v.stencil {
+                pass.set_stencil_reference(r);
+            }
+            pass.draw(0..3, 0..1);
+        }
     }
 }
 

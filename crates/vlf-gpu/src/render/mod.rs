@@ -8,7 +8,8 @@
 //! 2. [`barycentrics`]: the same mesh with one-hot vertex colours → the view direction's
 //!    barycentric weights (`Rgba32Float`), equal to `DirectionSet::lookup`'s.
 //! 3. [`face_id`]: the scene, depth-tested → face id of the visible surface (`R32Uint`,
-//!    [`NO_FACE`] for background).
+//!    [`NO_FACE`] for background); for textured light fields also a stencil marking the pixels
+//!    whose visible face is textured (so that pass 5 runs texture code for those only).
 //! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
 //!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`).
 //! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
@@ -210,6 +211,9 @@ pub struct Renderer {
     timer: Option<GpuTimer>,
     debug_view: Pass,
     sky: glam::Vec3,
+    /// Format of the depth buffer of passes 3–4 (with a stencil marking textured faces when
+    /// the light field has textures and the device the format; see [`final_radiance`]).
+    depth_format: wgpu::TextureFormat,
 }
 
 impl Renderer {
@@ -217,6 +221,16 @@ impl Renderer {
     pub fn new(ctx: &GpuContext, lf: &LightField) -> Result<Self, RenderError> {
         let device = &ctx.device;
         let light_field = GpuLightField::new(device, &ctx.queue, lf)?;
+        let textures = final_radiance::TextureKinds::of(lf);
+        let depth_format = if textures.any()
+            && device
+                .features()
+                .contains(wgpu::Features::DEPTH32FLOAT_STENCIL8)
+        {
+            targets::DEPTH_STENCIL_FORMAT
+        } else {
+            targets::DEPTH_FORMAT
+        };
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Renderer::globals_layout"),
             entries: &[wgpu::BindGroupLayoutEntry {
@@ -251,13 +265,9 @@ impl Renderer {
         Ok(Self {
             direction_ids: DirectionIdsPass::new(device, &globals_layout, &light_field),
             barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
-            face_id: FaceIdPass::new(device, &globals_layout, &light_field),
-            position: PositionPass::new(device, &globals_layout, &light_field),
-            final_radiance: FinalRadiancePass::new(
-                device,
-                &globals_layout,
-                !lf.shading.textures.is_empty(),
-            ),
+            face_id: FaceIdPass::new(device, &globals_layout, &light_field, depth_format),
+            position: PositionPass::new(device, &globals_layout, &light_field, depth_format),
+            final_radiance: FinalRadiancePass::new(device, &globals_layout, textures, depth_format),
             display: DisplayPass::new(device, &globals_layout),
             timer: GpuTimer::new(device, &ctx.queue, TIMED_PASSES.len() as u32),
             globals,
@@ -267,6 +277,7 @@ impl Renderer {
             frame: None,
             debug_view: Pass::FinalRadiance,
             sky: lf.params.sky,
+            depth_format,
         })
     }
 
@@ -330,7 +341,7 @@ impl Renderer {
         {
             return Ok(());
         }
-        let targets = Targets::new(device, width, height)?;
+        let targets = Targets::new(device, width, height, self.depth_format)?;
         let final_bind_group = self
             .final_radiance
             .bind(device, &targets, &self.light_field);

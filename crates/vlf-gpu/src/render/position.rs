@@ -5,7 +5,7 @@
 //! The uv target is what lets pass 5 apply textures at their own resolution; it is neither
 //! cleared nor read where no face is seen, and pass 5 reads it for textured faces only.
 
-use super::targets::{DEPTH_FORMAT, POSITION_FORMAT, Targets, UV_FORMAT};
+use super::targets::{DEPTH_STENCIL_FORMAT, POSITION_FORMAT, Targets, UV_FORMAT};
 use super::upload::GpuLightField;
 use super::{geometry_pass_layout, geometry_pipeline};
 use crate::shaders;
@@ -13,6 +13,8 @@ use crate::shaders;
 pub struct PositionPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
+    /// Whether the depth buffer has pass 3's stencil (kept as it is).
+    stencil: bool,
 }
 
 impl PositionPass {
@@ -20,11 +22,12 @@ impl PositionPass {
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
+        depth_format: wgpu::TextureFormat,
     ) -> Self {
         let (pass_layout, bind_group) =
             geometry_pass_layout(device, "Position", &[&lf.triangles, &lf.uvs]);
         let depth = wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
+            format: depth_format,
             depth_write_enabled: Some(false),
             depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
             stencil: Default::default(),
@@ -42,6 +45,7 @@ impl PositionPass {
         Self {
             pipeline,
             bind_group,
+            stencil: depth_format == DEPTH_STENCIL_FORMAT,
         }
     }
 
@@ -79,7 +83,10 @@ impl PositionPass {
                     load: wgpu::LoadOp::Load,
                     store: wgpu::StoreOp::Store,
                 }),
-                stencil_ops: None,
+                stencil_ops: self.stencil.then_some(wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                }),
             }),
             timestamp_writes: timestamps,
             occlusion_query_set: None,

@@ -16,6 +16,13 @@ pub const UV_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Depth of passes 3–4 (reverse-Z: cleared to 0, greater is nearer).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// [`DEPTH_FORMAT`] with a stencil, used for textured light fields when the device has
+/// `DEPTH32FLOAT_STENCIL8`: pass 3 writes [`TEXTURED_STENCIL`] where a textured face is seen
+/// and pass 5 shades those pixels, and only those, with its texture code (see
+/// [`super::final_radiance`]).
+pub const DEPTH_STENCIL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32FloatStencil8;
+/// Stencil value of pixels showing a textured face (0 elsewhere).
+pub const TEXTURED_STENCIL: u32 = 1;
 
 /// Textures and buffers holding one frame's pass outputs.
 pub struct Targets {
@@ -41,7 +48,14 @@ pub struct Targets {
 }
 
 impl Targets {
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<Self, RenderError> {
+    /// Targets of `width × height` with a depth buffer of `depth_format` ([`DEPTH_FORMAT`] or
+    /// [`DEPTH_STENCIL_FORMAT`]).
+    pub fn new(
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        depth_format: wgpu::TextureFormat,
+    ) -> Result<Self, RenderError> {
         let max = device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
             return Err(RenderError::Size { width, height, max });
@@ -86,7 +100,7 @@ impl Targets {
         let (face_id, face_id_view) = texture("FaceId::target", FACE_ID_FORMAT);
         let (position, position_view) = texture("Position::target", POSITION_FORMAT);
         let (uv, uv_view) = texture("Position::uv_target", UV_FORMAT);
-        let (_, depth_view) = texture("FaceId::depth", DEPTH_FORMAT);
+        let (_, depth_view) = texture("FaceId::depth", depth_format);
         let (radiance, radiance_view) = texture("FinalRadiance::target", RADIANCE_FORMAT);
         let accum = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("FinalRadiance::accumulation"),

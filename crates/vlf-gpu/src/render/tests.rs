@@ -1,9 +1,9 @@
 use super::upload::{
-    ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_DIFFUSE,
-    FLAG_EMISSIVE, FLAG_EMISSIVE_TEXTURE,
+    ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_DIFFUSE, FLAG_EMISSIVE,
+    FLAG_EMISSIVE_TEXTURE,
 };
-use vlf_core::scene::WrapMode;
 use crate::shaders::{self, constant};
+use vlf_core::scene::WrapMode;
 use wgpu::naga::Literal;
 
 /// The texture layouts and face flags of `upload.rs` are the ones pass 5 reads, the wrap-mode

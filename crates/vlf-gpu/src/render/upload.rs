@@ -2,7 +2,9 @@
 //! read out of range.
 //!
 //! * Geometry, the triangles' corner uvs and the direction set's sphere mesh: storage buffers,
-//!   read by vertex shaders only (a few invocations per triangle).
+//!   read by vertex shaders only (a few invocations per triangle). The triangles of textured
+//!   faces are uploaded after the others (`GpuLightField::first_textured`), so that pass 3 can
+//!   draw them with their own stencil value; each keeps its face index, so no output changes.
 //! * Per-pixel data of pass 5 — the irradiance atlas, the face records and the textures — are
 //!   2D textures read with `textureLoad`: on lavapipe a per-pixel, non-uniformly indexed
 //!   storage-buffer read costs several times a texel fetch (measured: reading one `vec4` per
@@ -60,10 +62,15 @@ pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
+    /// The triangles, those of textured faces last (see the module docs).
     pub triangles: wgpu::Buffer,
     pub triangle_count: u32,
+    /// Index of the first triangle of a textured face in [`triangles`](Self::triangles)
+    /// (`triangle_count` without textures).
+    pub first_textured: u32,
     pub face_count: u32,
-    /// `TEXCOORD_0` per triangle corner (vec2, three per triangle).
+    /// `TEXCOORD_0` per triangle corner (vec2, three per triangle, in the order of
+    /// [`triangles`](Self::triangles)).
     pub uvs: wgpu::Buffer,
     /// Face records (see the module docs).
     pub faces_view: wgpu::TextureView,
@@ -102,9 +109,8 @@ pub fn rho_over_pi(m: &SurfaceMaterial) -> glam::Vec3 {
     m.diffuse_albedo() * std::f32::consts::FRAC_1_PI
 }
 
-/// The face record texels of `f` with its material `m` (see the module docs).
-pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
-    let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
+/// The face flags of material `m` ([`FLAG_DIFFUSE`] and the others).
+pub fn face_flags(m: &SurfaceMaterial) -> u32 {
     let rho = rho_over_pi(m);
     let emissive = m.emission.iter().any(|&e| e > 0.0);
     let mut flags = 0;
@@ -120,8 +126,20 @@ pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_
             flags |= FLAG_EMISSIVE_TEXTURE;
         }
     }
+    flags
+}
+
+/// Whether pass 5 reads a texture for faces of material `m`.
+pub fn is_textured(m: &SurfaceMaterial) -> bool {
+    face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
+}
+
+/// The face record texels of `f` with its material `m` (see the module docs).
+pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
+    let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
+    let rho = rho_over_pi(m);
     [
-        b(f.normal, f.kind | flags),
+        b(f.normal, f.kind | face_flags(m)),
         b(f.origin, f.texel_size.to_bits()),
         b(f.u, f.width),
         b(f.v, f.height),
@@ -161,9 +179,22 @@ impl GpuLightField {
                 }),
             )
         };
+        // Triangles of untextured faces first, then those of textured ones (stable order).
+        let sh = &lf.shading;
+        let textured = |t: &BakeTriangle| {
+            is_textured(&sh.materials[lf.faces[t.face as usize].material as usize])
+        };
+        let mut order: Vec<usize> = (0..lf.triangles.len()).collect();
+        order.sort_by_key(|&i| textured(&lf.triangles[i]));
+        let first_textured = order
+            .iter()
+            .position(|&i| textured(&lf.triangles[i]))
+            .unwrap_or(order.len()) as u32;
+        let tris: Vec<BakeTriangle> = order.iter().map(|&i| lf.triangles[i]).collect();
+        let corner_uvs: Vec<[[f32; 2]; 3]> = order.iter().map(|&i| sh.uvs[i]).collect();
         let triangles = buffer(
             "Renderer::triangles",
-            bytemuck::cast_slice::<BakeTriangle, u8>(&lf.triangles),
+            bytemuck::cast_slice::<BakeTriangle, u8>(&tris),
         )?;
         let verts: Vec<[f32; 4]> = lf
             .directions
@@ -179,9 +210,8 @@ impl GpuLightField {
             .collect();
         let sphere_vertices = buffer("Renderer::sphere_vertices", bytemuck::cast_slice(&verts))?;
         let sphere_triangles = buffer("Renderer::sphere_triangles", bytemuck::cast_slice(&tris))?;
-        let uvs = buffer("Renderer::uvs", bytemuck::cast_slice(&lf.shading.uvs))?;
+        let uvs = buffer("Renderer::uvs", bytemuck::cast_slice(&corner_uvs))?;
 
-        let sh = &lf.shading;
         let records: Vec<[u32; 4]> = lf
             .faces
             .iter()
@@ -297,6 +327,7 @@ impl GpuLightField {
             frames_view,
             triangles,
             triangle_count: lf.triangles.len() as u32,
+            first_textured,
             face_count: lf.faces.len() as u32,
             uvs,
             faces_view,
