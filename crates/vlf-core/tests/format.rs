@@ -486,7 +486,7 @@ fn describe_reads_the_header_only() {
     let text = info.to_string();
     for needle in [
         "d.vlf",
-        "version 2",
+        "version 3",
         "irradiance in rgb16f; 3 materials, 2 textures (19 texels, f16 RGB)",
         "final gather  texel scale 0.5, indirect texel scale 2; 64 light samples, 16 direct rays, 256 indirect rays",
         "6 triangles, 3 faces",
@@ -539,7 +539,11 @@ fn rejects_bad_magic() {
 fn rejects_unsupported_versions() {
     let f = bytes_of(&small(), RadianceEncoding::Rgb9e5);
     for (v, why) in [
-        (3u32, "; the file was written by a newer vlf"),
+        (4u32, "; the file was written by a newer vlf"),
+        (
+            2,
+            "; the file was written by an older vlf: bake the scene again",
+        ),
         (
             1,
             "; the file was written by an older vlf: bake the scene again",
@@ -553,7 +557,7 @@ fn rejects_unsupported_versions() {
         g[8..12].copy_from_slice(&v.to_le_bytes());
         let msg = read_err(&g);
         let want =
-            format!("unsupported .vlf format version {v} (this build reads version 2 only{why}): ");
+            format!("unsupported .vlf format version {v} (this build reads version 3 only{why}): ");
         assert!(msg.starts_with(&want), "{msg}");
         assert!(format::describe_bytes(&g, Path::new("x.vlf")).is_err());
     }
@@ -1151,7 +1155,7 @@ fn hex(b: &[u8]) -> String {
 fn golden_bytes_of_a_tiny_file() {
     let f = bytes_of(&tiny(), RadianceEncoding::Rgb9e5);
     let p = Preamble::from_bytes(f[..32].try_into().unwrap());
-    // Preamble: magic, version 2, header length, file length, header checksum.
+    // Preamble: magic, version 3, header length, file length, header checksum.
     assert_eq!(&f[..8], b"VLFIELD\0");
     assert_eq!(hex(&f[8..24]), GOLDEN_PREAMBLE_8_24);
     assert_eq!(hex(&f[24..32]), GOLDEN_HEADER_CHECKSUM);
@@ -1169,8 +1173,8 @@ fn golden_bytes_of_a_tiny_file() {
 }
 
 const GOLDEN_LEN: usize = 632;
-const GOLDEN_PREAMBLE_8_24: &str = "02 00 00 00 37 01 00 00 78 02 00 00 00 00 00 00";
-const GOLDEN_HEADER_CHECKSUM: &str = "7e c2 71 25 55 33 e8 38";
+const GOLDEN_PREAMBLE_8_24: &str = "03 00 00 00 37 01 00 00 78 02 00 00 00 00 00 00";
+const GOLDEN_HEADER_CHECKSUM: &str = "41 db 66 fe 36 84 c7 9a";
 const GOLDEN_HEADER_32_80: &str = "15 40 08 00 00 80 3f 00 03 00 00 00 00 00 00 00 00 00 00 00 00 00 fc 01 00 ed 5e 00 01 02 15 00 00 80 3e 00 00 80 bf 00 00 60 40 00 00 00 3e 01";
 
 // ----- encoding measurements ----------------------------------------------------------------

@@ -15,13 +15,14 @@ use crate::scene::{Camera, SceneSummary, Similarity};
 
 /// The first 8 bytes of every `.vlf` file.
 pub const MAGIC: [u8; 8] = *b"VLFIELD\0";
-/// The version this build writes. Version 2: the header records the final gather's settings,
-/// the atlas holds irradiance, and the file holds the materials, uvs and textures the renderer
-/// shades it with (version 1 held outgoing radiance with the textures baked in at the atlas's
-/// resolution).
-pub const VERSION: u32 = 2;
+/// The version this build writes. Version 3: the atlas holds irradiance, the file holds the
+/// materials, uvs and textures the renderer shades it with, and the header records the final
+/// gather's settings (version 1 held outgoing radiance with the textures baked in at the
+/// atlas's resolution; version 2, made only by development builds, added the final gather's
+/// settings to version 1's layout).
+pub const VERSION: u32 = 3;
 /// The versions this build reads.
-pub const SUPPORTED_VERSIONS: std::ops::RangeInclusive<u32> = 2..=2;
+pub const SUPPORTED_VERSIONS: std::ops::RangeInclusive<u32> = 3..=3;
 /// Alignment of every section's offset (bytes).
 pub const SECTION_ALIGN: u64 = 16;
 /// Upper bound of [`Preamble::header_len`]: a corrupt length cannot make a reader allocate
@@ -293,7 +294,7 @@ pub struct FileParams {
     pub sky: [f32; 3],
     pub perturb: u32,
     pub seed: u64,
-    /// The final gather's settings (`None`: the light field alone). Since version 2.
+    /// The final gather's settings (`None`: the light field alone).
     pub final_gather: Option<FileGather>,
 }
 
