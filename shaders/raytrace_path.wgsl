@@ -188,14 +188,6 @@ fn reflect_about(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return 2.0 * dot(v, n) * n - v;
 }
 
-// Wächter & Binder 2019 (mirrors vlf_core::pathtrace::geometry::offset_ray_origin).
-fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let of_i = vec3<i32>(256.0 * n);
-    let bits = bitcast<vec3<i32>>(p);
-    let moved = bitcast<vec3<f32>>(bits + select(of_i, -of_i, p < vec3<f32>(0.0)));
-    return select(moved, p + (1.0 / 65536.0) * n, abs(p) < vec3<f32>(1.0 / 32.0));
-}
-
 // ---------------------------------------------------------------------------------------------
 // Scene data in the blob.
 

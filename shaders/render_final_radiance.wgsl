@@ -25,6 +25,13 @@
 //   sense, with the pass-2 weights; for each, the position maps into that direction's ray grid
 //   and the tile values of the covered cells around it are filtered bilinearly.
 //
+// * With tracing (pipeline constant TRACING; vlf_gpu::render::mirror_trace has the rules and
+//   their CPU specification), mirror and mixed faces trace the reflected view ray through the
+//   scene's BVH instead (common/bvh.wgsl), following further mirrors up to MIRROR_DEPTH
+//   mirrors, and read at the first diffuse face what this pass reads at a visible point there
+//   (surface_radiance_uv), or the sky; a chain cut off by the bound or ending on a mixed face
+//   falls back to the visible face's tiles.
+//
 // Output: this sample's radiance (rgb; a = 1 where a face is seen) in `radiance_out`. Stills
 // with several jittered samples (sample_count > 1) also accumulate it into `accum` with weight
 // sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
@@ -40,13 +47,16 @@
 #import "common/fullscreen.wgsl"
 #import "common/display_mapping.wgsl"
 #import "common/texture.wgsl"
+#import "common/bvh.wgsl"
 
-// Group 0: `g` (common/render_globals.wgsl).
+// Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
+// BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
 
 const FACE_DIFFUSE: u32 = 0u;
+const FACE_MIRROR: u32 = 1u;
 // Must match upload.rs.
 const ATLAS_WIDTH: u32 = 4096u;
-const FACE_RECORD_TEXELS: u32 = 7u;
+const FACE_RECORD_TEXELS: u32 = 8u;
 const FACES_PER_ROW: u32 = 1024u;
 // Face flags (bits of the face record's texel 0 w above the kind).
 const KIND_MASK: u32 = 0xffu;
@@ -59,14 +69,20 @@ const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
 // texture code no pixel needs is compiled out instead of skipped.
 override BASE_TEXTURES: bool = true;
 override EMISSIVE_TEXTURES: bool = true;
+// Whether mirror and mixed faces trace their reflection (see the header); false compiles the
+// traversal out.
+override TRACING: bool = false;
+// Mirrors a traced chain follows, the visible one included (vlf_gpu::render::mirror_trace::
+// MAX_DEPTH, a Rust test checks).
+const MIRROR_DEPTH: u32 = 8u;
 
-@group(1) @binding(0) var direction_ids: texture_2d<u32>;
-@group(1) @binding(1) var barycentrics: texture_2d<f32>;
+@group(1) @binding(13) var direction_ids: texture_2d<u32>;
+@group(1) @binding(14) var barycentrics: texture_2d<f32>;
 @group(1) @binding(2) var face_ids: texture_2d<u32>;
 @group(1) @binding(3) var positions: texture_2d<f32>;
-// Face records: 7 texels per face (normal, kind | flags · origin, texel_size · u, width ·
-// v, height · ρ_d/π, texel_base · Le, 0 · base-colour texture, emissive texture, 0, 0), floats
-// as bits.
+// Face records: 8 texels per face (normal, kind | flags · origin, texel_size · u, width ·
+// v, height · ρ_d/π, texel_base · Le, 0 · base-colour texture, emissive texture, 0, 0 ·
+// mirror reflectance, 0), floats as bits.
 @group(1) @binding(4) var face_records: texture_2d<u32>;
 // Irradiance per atlas texel (rgb; a unused), both sides of every face, in the light field's
 // stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel fetch decodes
@@ -85,6 +101,9 @@ override EMISSIVE_TEXTURES: bool = true;
 // wrap_t << 4]) and every texel (linear RGB, Rgba16Float), ATLAS_WIDTH wide.
 @group(1) @binding(11) var texture_records: texture_2d<u32>;
 @group(1) @binding(12) var texels: texture_2d<f32>;
+// TEXCOORD_0 at the corners of the mirror-tracing BVH's triangles, three per triangle in leaf
+// order.
+@group(1) @binding(15) var<storage, read> mirror_uvs: array<vec2<f32>>;
 
 struct Face {
     normal: vec3<f32>,
@@ -266,15 +285,18 @@ fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) 
     return out;
 }
 
-// Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` on `side`. Mirrored
-// exactly on the CPU by vlf_gpu::render::final_radiance::surface_radiance.
-fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
-    let textured = (BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u)
+// Whether this pipeline reads a texture for face record `f`.
+fn is_textured(f: Face) -> bool {
+    return (BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u)
         || (EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u);
-    var uv = vec2<f32>(0.0);
+}
+
+// Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` with texture coordinate
+// `uv` on `side`. Mirrored exactly on the CPU by
+// vlf_gpu::render::final_radiance::surface_radiance.
+fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
     var tex = vec2<u32>(0u);
-    if textured {
-        uv = textureLoad(uvs, px, 0).xy;
+    if is_textured(f) {
         tex = face_texel(face, 6u).xy;
     }
     var l = vec3<f32>(0.0);
@@ -295,6 +317,62 @@ fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) 
     return l;
 }
 
+// surface_radiance_uv at the pixel `px` (its uv from pass 4, read only for textured faces).
+fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
+    var uv = vec2<f32>(0.0);
+    if is_textured(f) {
+        uv = textureLoad(uvs, px, 0).xy;
+    }
+    return surface_radiance_uv(face, f, side, p, uv);
+}
+
+fn specular_reflectance(face: u32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(face_texel(face, 7u).xyz);
+}
+
+// The traced chain's specular radiance (rgb) reaching the eye from point `p` of non-diffuse
+// face `face` (record `f`); w = 1 where the pixel falls back to its tiles instead. Mirrored on
+// the CPU by vlf_gpu::render::mirror_trace::traced_specular.
+fn traced_specular(face: u32, f: Face, p: vec3<f32>) -> vec4<f32> {
+    let d = normalize(p - g.eye.xyz);
+    var n = f.normal;
+    let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
+    var throughput = specular_reflectance(face);
+    var dir = normalize(d - 2.0 * dot(d, n) * n);
+    var origin = offset_origin(p, side);
+    var depth = 1u;
+    loop {
+        let hit = trace(Ray(origin, 0.0, dir, 3.40282347e38), false);
+        if hit.tri == NONE {
+            return vec4<f32>(throughput * g.sky.rgb, 0.0);
+        }
+        let t = triangles[hit.tri];
+        let hface = t.material;
+        let b0 = 1.0 - hit.u - hit.v;
+        let q = t.p0 * b0 + t.p1 * hit.u + t.p2 * hit.v;
+        let hf = load_face(hface);
+        n = hf.normal;
+        if hf.kind == FACE_DIFFUSE {
+            var uv = vec2<f32>(0.0);
+            if is_textured(hf) {
+                let k = 3u * hit.tri;
+                uv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
+            }
+            let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
+            return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, uv), 0.0);
+        }
+        if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
+            return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        }
+        throughput = throughput * specular_reflectance(hface);
+        let off = select(-n, n, dot(n, -dir) > 0.0);
+        dir = normalize(dir - 2.0 * dot(dir, n) * n);
+        origin = offset_origin(q, off);
+        depth += 1u;
+    }
+    return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+}
+
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_vertex(vi);
@@ -313,7 +391,15 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
         let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
         l = surface_radiance(face, f, side, p, px);
         if f.kind != FACE_DIFFUSE {
-            l += specular_radiance(face, f.normal, p, px);
+            var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+            if TRACING {
+                traced = traced_specular(face, f, p);
+            }
+            if traced.w != 0.0 {
+                l += specular_radiance(face, f.normal, p, px);
+            } else {
+                l += traced.rgb;
+            }
         }
         hit = 1.0;
     }

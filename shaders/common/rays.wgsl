@@ -13,6 +13,16 @@ struct Ray {
     tmax: f32,
 }
 
+// A surface point moved off its surface along n (the side a new ray leaves towards) so that the
+// ray never re-hits it: Wächter & Binder 2019 (mirrors
+// vlf_core::pathtrace::geometry::offset_ray_origin). Path tracer and pass 5's mirror tracing.
+fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let of_i = vec3<i32>(256.0 * n);
+    let bits = bitcast<vec3<i32>>(p);
+    let moved = bitcast<vec3<f32>>(bits + select(of_i, -of_i, p < vec3<f32>(0.0)));
+    return select(moved, p + (1.0 / 65536.0) * n, abs(p) < vec3<f32>(1.0 / 32.0));
+}
+
 // Closest (or any) hit: tri = NONE for a miss; u, v = barycentric weights of corners 1 and 2
 // (mirrors vlf_core::pathtrace::Hit).
 struct Hit {

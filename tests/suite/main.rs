@@ -8,5 +8,6 @@ mod pathtrace_gpu;
 mod radiosity_gpu;
 mod render;
 mod render_encoding;
+mod render_mirrors;
 mod render_textures;
 mod stability_gpu;

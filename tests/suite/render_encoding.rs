@@ -174,6 +174,9 @@ fn both_encodings_render_their_radiance() {
             let lf = with_encoding(lf, enc);
             let offsets = lf.shading.texture_offsets();
             let mut r = Renderer::new(ctx, &lf).unwrap();
+            // Mirror pixels read their stored tiles (the bound below is theirs); traced ones
+            // read the atlas at their hit (tests/suite/render_mirrors.rs).
+            r.set_mirror_tracing(false);
             let f = r.render_frame_data(ctx, &cam, w, h).unwrap();
             // Diffuse faces: the CPU lookup of the same stored values.
             for i in 0..(w * h) as usize {

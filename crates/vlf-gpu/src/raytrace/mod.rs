@@ -43,6 +43,77 @@ pub enum RaytraceError {
     Settings(#[from] PathTraceError),
 }
 
+/// A BVH uploaded for the shared traversal (`shaders/common/bvh.wgsl`, bind group 1 bindings 0
+/// and 1): its nodes and leaf-order triangles, unchanged. The ray engine's scenes and pass 5's
+/// mirror tracing ([`crate::render::mirror_trace`]) both upload theirs with it.
+pub struct GpuBvh {
+    /// BVH nodes (`array<BvhNode>`).
+    pub nodes: wgpu::Buffer,
+    /// Leaf-order triangles (`array<RtTriangle>`).
+    pub triangles: wgpu::Buffer,
+}
+
+impl GpuBvh {
+    /// Uploads `bvh`; buffers are labelled `"{owner}::nodes"` and `"{owner}::triangles"`.
+    pub fn upload(
+        device: &wgpu::Device,
+        owner: &str,
+        bvh: &vlf_core::pathtrace::Bvh,
+    ) -> Result<Self, RaytraceError> {
+        let nodes = bvh.nodes();
+        let tris = &bvh.triangles;
+        check_binding(device, "BVH", std::mem::size_of_val(nodes))?;
+        check_binding(
+            device,
+            "triangle buffer",
+            std::mem::size_of_val(tris.as_slice()),
+        )?;
+        let dummy = [vlf_core::pathtrace::RtTriangle::default()];
+        let tri_slice: &[vlf_core::pathtrace::RtTriangle] =
+            if tris.is_empty() { &dummy } else { tris };
+        Ok(Self {
+            nodes: storage_init(
+                device,
+                &format!("{owner}::nodes"),
+                bytemuck::cast_slice(nodes),
+            ),
+            triangles: storage_init(
+                device,
+                &format!("{owner}::triangles"),
+                bytemuck::cast_slice(tri_slice),
+            ),
+        })
+    }
+}
+
+/// Fails with [`RaytraceError::TooLarge`] when `bytes` exceed what one storage binding allows.
+fn check_binding(
+    device: &wgpu::Device,
+    what: &'static str,
+    bytes: usize,
+) -> Result<(), RaytraceError> {
+    let limit = device
+        .limits()
+        .max_storage_buffer_binding_size
+        .min(device.limits().max_buffer_size);
+    if bytes as u64 > limit {
+        return Err(RaytraceError::TooLarge {
+            what,
+            bytes: bytes as u64,
+            limit,
+        });
+    }
+    Ok(())
+}
+
+fn storage_init(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
 /// A prepared scene uploaded to the GPU.
 pub struct GpuScene {
     /// BVH nodes (`array<BvhNode>`).
@@ -60,47 +131,17 @@ pub struct GpuScene {
 impl GpuScene {
     /// Uploads the BVH, the triangles and the packed shading data of `prep`.
     pub fn upload(device: &wgpu::Device, prep: &PreparedScene) -> Result<Self, RaytraceError> {
-        let limit = device
-            .limits()
-            .max_storage_buffer_binding_size
-            .min(device.limits().max_buffer_size);
         let mut packed = scene::pack(prep);
-        let check = |what: &'static str, bytes: usize| {
-            if bytes as u64 > limit {
-                Err(RaytraceError::TooLarge {
-                    what,
-                    bytes: bytes as u64,
-                    limit,
-                })
-            } else {
-                Ok(())
-            }
-        };
-        let nodes = prep.bvh.nodes();
-        let tris = &prep.bvh.triangles;
-        check("BVH", std::mem::size_of_val(nodes))?;
-        check("triangle buffer", std::mem::size_of_val(tris.as_slice()))?;
-        check("shading data and textures", packed.blob.len() * 16)?;
-        let init = |label: &str, contents: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
-        let dummy = [vlf_core::pathtrace::RtTriangle::default()];
-        let tri_slice: &[vlf_core::pathtrace::RtTriangle] =
-            if tris.is_empty() { &dummy } else { tris };
-        let nodes = init("RayScene::nodes", bytemuck::cast_slice(nodes));
-        let triangles = init("RayScene::triangles", bytemuck::cast_slice(tri_slice));
-        let blob = init("RayScene::blob", bytemuck::cast_slice(&packed.blob));
+        let bvh = GpuBvh::upload(device, "RayScene", &prep.bvh)?;
+        check_binding(device, "shading data and textures", packed.blob.len() * 16)?;
+        let blob = storage_init(device, "RayScene::blob", bytemuck::cast_slice(&packed.blob));
         packed.blob = Vec::new();
         Ok(Self {
-            nodes,
-            triangles,
+            nodes: bvh.nodes,
+            triangles: bvh.triangles,
             blob,
             packed,
-            triangle_count: tris.len() as u32,
+            triangle_count: prep.bvh.triangles.len() as u32,
         })
     }
 }

@@ -19,6 +19,11 @@
 //!   for each, the position maps into that direction's ray grid and the tile values of the
 //!   covered cells around it are filtered bilinearly. (There is no CPU copy of this part; the
 //!   mirror accuracy tests compare whole images with the path-traced reference instead.)
+//! * With mirror tracing (the default where there are mirrors; [`FinalRadiancePass::set_tracing`]),
+//!   mirror and mixed faces trace the reflected view ray through the scene's BVH instead of
+//!   reading their tiles, and read the light field at the first diffuse face as this pass reads
+//!   a visible point: [`super::mirror_trace`] (rules, BVH, CPU specification). The pipeline
+//!   constant `TRACING` compiles the traversal out of the untraced pipelines.
 //!
 //! Output: this sample's radiance in an `Rgba32Float` render target (what the display, stills
 //! and tests read). Stills with several jittered samples also accumulate into a storage buffer:
@@ -51,6 +56,7 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
+use super::mirror_trace::GpuMirrorScene;
 use super::targets::{DEPTH_STENCIL_FORMAT, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets};
 use super::upload::{
     FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi,
@@ -82,11 +88,12 @@ impl TextureKinds {
     }
 }
 
-/// One draw of the pass: the shader's texture constants and, with a stencil, the stencil
-/// value of the pixels it shades.
+/// One draw of the pass: the shader's texture constants, whether mirror pixels trace
+/// ([`super::mirror_trace`]) and, with a stencil, the stencil value of the pixels it shades.
 #[derive(Clone, Copy, Debug)]
 struct Variant {
     textures: TextureKinds,
+    tracing: bool,
     stencil: Option<u32>,
 }
 
@@ -94,24 +101,33 @@ pub struct FinalRadiancePass {
     pass_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
-    /// The draw of stills and debug views (one, without stencil).
-    variant: Variant,
-    /// Radiance target only (stills, debug views).
-    pipeline: wgpu::RenderPipeline,
-    /// The draws of the window's final image, in order (see the module docs).
-    present_variants: Vec<Variant>,
-    /// Radiance target + the window's surface, one per surface format and present variant.
-    present_pipelines: HashMap<wgpu::TextureFormat, Vec<wgpu::RenderPipeline>>,
+    /// Whether the light field has mirror or mixed faces (and so a traced branch).
+    mirrors: bool,
+    /// Whether mirror pixels trace (when `mirrors`), see [`FinalRadiancePass::set_tracing`].
+    tracing: bool,
+    /// The draw of stills and debug views (one, without stencil), untraced and traced.
+    variants: [Variant; 2],
+    /// Radiance target only (stills, debug views), per entry of `variants` (the traced one only
+    /// with mirrors).
+    pipelines: Vec<wgpu::RenderPipeline>,
+    /// The draws of the window's final image, in order (see the module docs), untraced and
+    /// traced.
+    present_variants: [Vec<Variant>; 2],
+    /// Radiance target + the window's surface, one per surface format, tracing and present
+    /// variant.
+    present_pipelines: HashMap<(wgpu::TextureFormat, bool), Vec<wgpu::RenderPipeline>>,
 }
 
 impl FinalRadiancePass {
-    /// `textures`: the kinds of texture the light field's faces read; `depth_format`: that of
-    /// passes 3–4, [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured faces in the stencil
-    /// (see the module docs).
+    /// `textures`: the kinds of texture the light field's faces read; `mirrors`: whether it has
+    /// mirror or mixed faces (then mirror pixels trace, [`super::mirror_trace`]);
+    /// `depth_format`: that of passes 3–4, [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured
+    /// faces in the stencil (see the module docs).
     pub fn new(
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
         textures: TextureKinds,
+        mirrors: bool,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
         let vis = wgpu::ShaderStages::FRAGMENT;
@@ -119,8 +135,8 @@ impl FinalRadiancePass {
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("FinalRadiance::pass_layout"),
             entries: &[
-                texture_entry(0, vis, wgpu::TextureSampleType::Uint),
-                texture_entry(1, vis, unfiltered),
+                storage_entry(0, vis, true),
+                storage_entry(1, vis, true),
                 texture_entry(2, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(3, vis, unfiltered),
                 texture_entry(4, vis, wgpu::TextureSampleType::Uint),
@@ -132,6 +148,9 @@ impl FinalRadiancePass {
                 texture_entry(10, vis, unfiltered),
                 texture_entry(11, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(12, vis, unfiltered),
+                texture_entry(13, vis, wgpu::TextureSampleType::Uint),
+                texture_entry(14, vis, unfiltered),
+                storage_entry(15, vis, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -140,34 +159,54 @@ impl FinalRadiancePass {
             immediate_size: 0,
         });
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
-        let variant = Variant {
+        let variants = [false, true].map(|tracing| Variant {
             textures,
+            tracing,
             stencil: None,
-        };
-        let present_variants = if textures.any() && depth_format == DEPTH_STENCIL_FORMAT {
-            vec![
-                Variant {
-                    textures: TextureKinds::default(),
-                    stencil: Some(0),
-                },
-                Variant {
-                    textures,
-                    stencil: Some(TEXTURED_STENCIL),
-                },
-            ]
-        } else {
-            vec![variant]
-        };
-        let pipeline = Self::create_pipeline(device, &pipeline_layout, &module, variant, None);
+        });
+        let present_variants = variants.map(|variant| {
+            if textures.any() && depth_format == DEPTH_STENCIL_FORMAT {
+                vec![
+                    Variant {
+                        textures: TextureKinds::default(),
+                        stencil: Some(0),
+                        ..variant
+                    },
+                    Variant {
+                        stencil: Some(TEXTURED_STENCIL),
+                        ..variant
+                    },
+                ]
+            } else {
+                vec![variant]
+            }
+        });
+        let pipelines = variants[..1 + usize::from(mirrors)]
+            .iter()
+            .map(|v| Self::create_pipeline(device, &pipeline_layout, &module, *v, None))
+            .collect();
         Self {
             pass_layout,
             pipeline_layout,
             module,
-            variant,
-            pipeline,
+            mirrors,
+            tracing: mirrors,
+            variants,
+            pipelines,
             present_variants,
             present_pipelines: HashMap::new(),
         }
+    }
+
+    /// Whether mirror pixels trace their reflection (on by default where the light field has
+    /// mirrors); off, they read their tiles.
+    pub fn set_tracing(&mut self, on: bool) {
+        self.tracing = on && self.mirrors;
+    }
+
+    /// Whether mirror pixels trace their reflection.
+    pub fn tracing(&self) -> bool {
+        self.tracing
     }
 
     fn create_pipeline(
@@ -181,6 +220,7 @@ impl FinalRadiancePass {
         let constants = [
             ("BASE_TEXTURES", flag(variant.textures.base)),
             ("EMISSIVE_TEXTURES", flag(variant.textures.emissive)),
+            ("TRACING", flag(variant.tracing)),
         ];
         let equal = wgpu::StencilFaceState {
             compare: wgpu::CompareFunction::Equal,
@@ -248,6 +288,7 @@ impl FinalRadiancePass {
         device: &wgpu::Device,
         targets: &Targets,
         lf: &GpuLightField,
+        mirror_scene: &GpuMirrorScene,
     ) -> wgpu::BindGroup {
         let tex = |binding, view| wgpu::BindGroupEntry {
             binding,
@@ -257,8 +298,14 @@ impl FinalRadiancePass {
             label: Some("FinalRadiance::pass_bind_group"),
             layout: &self.pass_layout,
             entries: &[
-                tex(0, &targets.direction_ids_view),
-                tex(1, &targets.barycentrics_view),
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: mirror_scene.bvh.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: mirror_scene.bvh.triangles.as_entire_binding(),
+                },
                 tex(2, &targets.face_id_view),
                 tex(3, &targets.position_view),
                 tex(4, &lf.faces_view),
@@ -273,6 +320,12 @@ impl FinalRadiancePass {
                 tex(10, &targets.uv_view),
                 tex(11, &lf.texture_records_view),
                 tex(12, &lf.texels_view),
+                tex(13, &targets.direction_ids_view),
+                tex(14, &targets.barycentrics_view),
+                wgpu::BindGroupEntry {
+                    binding: 15,
+                    resource: mirror_scene.uvs.as_entire_binding(),
+                },
             ],
         })
     }
@@ -290,10 +343,11 @@ impl FinalRadiancePass {
             &targets.radiance_view,
             wgpu::Color::TRANSPARENT,
         ))];
+        let t = usize::from(self.tracing);
         Self::draw(
             encoder,
-            &[self.variant],
-            std::slice::from_ref(&self.pipeline),
+            &self.variants[t..=t],
+            &self.pipelines[t..=t],
             &attachments,
             targets,
             globals,
@@ -316,8 +370,10 @@ impl FinalRadiancePass {
         format: wgpu::TextureFormat,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        if !self.present_pipelines.contains_key(&format) {
-            let pipelines = (self.present_variants.iter())
+        let key = (format, self.tracing);
+        let variants = &self.present_variants[usize::from(self.tracing)];
+        if !self.present_pipelines.contains_key(&key) {
+            let pipelines = (variants.iter())
                 .map(|v| {
                     Self::create_pipeline(
                         device,
@@ -328,9 +384,9 @@ impl FinalRadiancePass {
                     )
                 })
                 .collect();
-            self.present_pipelines.insert(format, pipelines);
+            self.present_pipelines.insert(key, pipelines);
         }
-        let pipelines = &self.present_pipelines[&format];
+        let pipelines = &self.present_pipelines[&key];
         let attachments = [
             Some(super::color_attachment(
                 &targets.radiance_view,
@@ -340,7 +396,7 @@ impl FinalRadiancePass {
         ];
         Self::draw(
             encoder,
-            &self.present_variants,
+            variants,
             pipelines,
             &attachments,
             targets,

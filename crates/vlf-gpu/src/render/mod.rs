@@ -14,9 +14,10 @@
 //!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`).
 //! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
 //!    point towards the camera: emission and base-colour texture at the pixel's uv applied to
-//!    the atlas irradiance on the side facing the camera (`Le + ρ_d/π · E`), plus the mirror
-//!    tiles, or the sky (`Rgba32Float`); stills average several jittered samples into a storage
-//!    buffer.
+//!    the atlas irradiance on the side facing the camera (`Le + ρ_d/π · E`), plus, for mirror
+//!    and mixed faces, the reflection traced through the scene's BVH ([`mirror_trace`]) or read
+//!    from the mirror tiles, or the sky (`Rgba32Float`); stills average several jittered
+//!    samples into a storage buffer.
 //!
 //! Then [`display`] shows the selected [`Pass`]'s output (debug view) on a colour target. For
 //! the final image in the window the display is fused into pass 5 (a second colour target:
@@ -45,6 +46,7 @@ pub mod direction_ids;
 pub mod display;
 pub mod face_id;
 pub mod final_radiance;
+pub mod mirror_trace;
 mod pipelines;
 pub mod position;
 pub mod targets;
@@ -63,6 +65,7 @@ use direction_ids::DirectionIdsPass;
 use display::DisplayPass;
 use face_id::FaceIdPass;
 use final_radiance::FinalRadiancePass;
+use mirror_trace::GpuMirrorScene;
 use position::PositionPass;
 use targets::Targets;
 use timing::GpuTimer;
@@ -201,6 +204,8 @@ pub struct Renderer {
     globals_bind_group: wgpu::BindGroup,
     globals_layout: wgpu::BindGroupLayout,
     light_field: GpuLightField,
+    /// The BVH pass 5 traces mirror reflections through.
+    mirror_scene: GpuMirrorScene,
     direction_ids: DirectionIdsPass,
     barycentrics: BarycentricsPass,
     face_id: FaceIdPass,
@@ -221,6 +226,8 @@ impl Renderer {
     pub fn new(ctx: &GpuContext, lf: &LightField) -> Result<Self, RenderError> {
         let device = &ctx.device;
         let light_field = GpuLightField::new(device, &ctx.queue, lf)?;
+        let mirror_scene = GpuMirrorScene::new(device, lf)?;
+        let mirrors = mirror_trace::has_mirrors(lf);
         let textures = final_radiance::TextureKinds::of(lf);
         let depth_format = if textures.any()
             && device
@@ -267,13 +274,20 @@ impl Renderer {
             barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
             face_id: FaceIdPass::new(device, &globals_layout, &light_field, depth_format),
             position: PositionPass::new(device, &globals_layout, &light_field, depth_format),
-            final_radiance: FinalRadiancePass::new(device, &globals_layout, textures, depth_format),
+            final_radiance: FinalRadiancePass::new(
+                device,
+                &globals_layout,
+                textures,
+                mirrors,
+                depth_format,
+            ),
             display: DisplayPass::new(device, &globals_layout),
             timer: GpuTimer::new(device, &ctx.queue, TIMED_PASSES.len() as u32),
             globals,
             globals_bind_group,
             globals_layout,
             light_field,
+            mirror_scene,
             frame: None,
             debug_view: Pass::FinalRadiance,
             sky: lf.params.sky,
@@ -292,9 +306,20 @@ impl Renderer {
     }
 
     /// Bytes of light-field data on the GPU (geometry, uvs, faces, atlas, textures, direction
-    /// mesh).
+    /// mesh, the mirror-tracing BVH).
     pub fn light_field_bytes(&self) -> u64 {
-        self.light_field.bytes
+        self.light_field.bytes + self.mirror_scene.bytes
+    }
+
+    /// Whether pass 5 traces the reflections of mirror pixels (default: on where the light
+    /// field has mirror or mixed faces; see [`mirror_trace`]). Off, they read the mirror tiles.
+    pub fn set_mirror_tracing(&mut self, on: bool) {
+        self.final_radiance.set_tracing(on);
+    }
+
+    /// Whether pass 5 traces mirror reflections (false without mirrors).
+    pub fn mirror_tracing(&self) -> bool {
+        self.final_radiance.tracing()
     }
 
     /// Bytes of the light textures on the GPU (atlas irradiance and mirror tile values, in the
@@ -342,9 +367,9 @@ impl Renderer {
             return Ok(());
         }
         let targets = Targets::new(device, width, height, self.depth_format)?;
-        let final_bind_group = self
-            .final_radiance
-            .bind(device, &targets, &self.light_field);
+        let final_bind_group =
+            self.final_radiance
+                .bind(device, &targets, &self.light_field, &self.mirror_scene);
         let display_bind_group = self.display.bind(device, &targets);
         self.frame = Some(Frame {
             targets,

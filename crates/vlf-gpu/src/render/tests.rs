@@ -23,6 +23,8 @@ fn shader_layout_constants_match_rust() {
         ("WRAP_REPEAT", WrapMode::Repeat.id()),
         ("WRAP_CLAMP_TO_EDGE", WrapMode::ClampToEdge.id()),
         ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),
+        ("FACE_MIRROR", vlf_core::lightfield::FACE_MIRROR),
+        ("MIRROR_DEPTH", super::mirror_trace::MAX_DEPTH),
     ] {
         assert_eq!(
             constant(&module, name),

@@ -24,8 +24,10 @@
 //!   ([`face_record`]):
 //!   0: normal.xyz, kind | flags · 1: origin.xyz, texel_size · 2: u.xyz, width ·
 //!   3: v.xyz, height · 4: ρ_d/π (rgb), texel_base · 5: Le (rgb), 0 ·
-//!   6: base-colour texture, emissive texture, 0, 0. Pass 5 reads texels 0–4 of every face,
-//!   5 only for emitters and 6 only for textured faces ([`FLAG_DIFFUSE`] and the other flags).
+//!   6: base-colour texture, emissive texture, 0, 0 · 7: mirror reflectance (rgb,
+//!   [`specular_reflectance`]), 0. Pass 5 reads texels 0–4 of every face, 5 only for emitters,
+//!   6 only for textured faces ([`FLAG_DIFFUSE`] and the other flags) and 7 only for mirrors
+//!   along a traced chain ([`super::mirror_trace`]).
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -49,7 +51,7 @@ use super::RenderError;
 /// Width of the atlas texture (elements per row).
 pub const ATLAS_WIDTH: u32 = 4096;
 /// Texels per face record.
-pub const FACE_RECORD_TEXELS: u32 = 7;
+pub const FACE_RECORD_TEXELS: u32 = 8;
 /// Face records per row of the face texture.
 pub const FACES_PER_ROW: u32 = 1024;
 /// Face flags, in the face record's texel 0 w above the kind (which takes the low 8 bits):
@@ -129,6 +131,12 @@ pub fn face_flags(m: &SurfaceMaterial) -> u32 {
     flags
 }
 
+/// Mirror reflectance of face `f` with material `m`: specular weight × base colour (0 for
+/// diffuse faces; the base-colour texture is not applied, as in `vlf_core::resample`).
+pub fn specular_reflectance(f: &BakeFace, m: &SurfaceMaterial) -> glam::Vec3 {
+    glam::Vec3::from(m.base_color) * f.specular
+}
+
 /// Whether pass 5 reads a texture for faces of material `m`.
 pub fn is_textured(m: &SurfaceMaterial) -> bool {
     face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
@@ -146,6 +154,7 @@ pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_
         b(rho.into(), f.texel_base),
         b(m.emission, 0),
         [m.base_color_texture, m.emissive_texture, 0, 0],
+        b(specular_reflectance(f, m).into(), 0),
     ]
 }
 

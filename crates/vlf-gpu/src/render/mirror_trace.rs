@@ -1,0 +1,170 @@
+//! Pass 5's traced branch for mirror pixels (issue 15 part 1; VLF 2004 §5: "only ES*D rays
+//! must be computed"): the scene's BVH for it and its CPU specification.
+//!
+//! Where the visible face is a mirror or a mixed face, pass 5 replaces the specular part read
+//! from the face's tiles by tracing the reflected view ray (`shaders/render_final_radiance.wgsl`,
+//! `traced_specular`, through the shared traversal of `shaders/common/bvh.wgsl`):
+//!
+//! * the chain follows further mirror faces, multiplying their reflectance (specular weight ×
+//!   base colour, [`specular_reflectance`]), up to [`MAX_DEPTH`] mirrors including the visible
+//!   one — the bound and the rules of `vlf_core::resample` (issue 15 part 2), which computes the
+//!   same chain once per tile cell;
+//! * at the first diffuse face it reads the light field exactly as pass 5 reads a visible point
+//!   (`Le(uv)` on the front, `ρ_d(uv)/π ·` atlas irradiance, at the hit's own point and uv:
+//!   the same WGSL function);
+//! * a ray that leaves the scene reads the sky;
+//! * a chain cut off by the depth bound, or ending on a mixed face (whose specular part would
+//!   need the tiles in the ray's direction, i.e. a direction lookup pass 5 does not have on the
+//!   GPU), falls back to the visible face's own tiles for the whole specular part. After part 2
+//!   those tiles hold the same chain, traced at tile resolution.
+//!
+//! Emission of mirrors passed along the chain is not added (as in the resampling).
+//!
+//! The BVH is built here over the light field's own triangles in VLF coordinates (the
+//! coordinates of every render pass), with [`RtTriangle::material`] holding the triangle's face
+//! and [`RtTriangle::prim`] its index in `LightField::triangles`, and uploaded with the ray
+//! engine's [`GpuBvh`]; the hit's uvs come from a leaf-order copy of the corner uvs.
+
+use glam::{Vec2, Vec3};
+use vlf_core::lightfield::{FACE_DIFFUSE, FACE_MIRROR, LightField};
+use vlf_core::pathtrace::geometry::offset_ray_origin;
+use vlf_core::pathtrace::{Bvh, Ray, RtTriangle};
+use wgpu::util::DeviceExt;
+
+use super::RenderError;
+use super::final_radiance::{surface_radiance, visible_side};
+use crate::raytrace::GpuBvh;
+
+/// Mirrors a traced chain follows, the visible one included, before it falls back to the
+/// tiles. Equal to `vlf_core::resample::MAX_DEPTH` (the mirror-tile resampling traces the same
+/// chains); the WGSL constant `MIRROR_DEPTH` is checked against it.
+pub const MAX_DEPTH: u32 = 8;
+
+/// Whether `lf` has faces with a specular part (mirror or mixed): only then does pass 5 trace.
+pub fn has_mirrors(lf: &LightField) -> bool {
+    lf.faces.iter().any(|f| f.kind != FACE_DIFFUSE)
+}
+
+/// Mirror reflectance of face `face` ([`super::upload::specular_reflectance`]).
+pub fn specular_reflectance(lf: &LightField, face: u32) -> Vec3 {
+    let f = &lf.faces[face as usize];
+    super::upload::specular_reflectance(f, &lf.shading.materials[f.material as usize])
+}
+
+/// The BVH pass 5 traces: `lf`'s triangles (VLF coordinates), `material` = face,
+/// `prim` = triangle index.
+pub fn build_bvh(lf: &LightField) -> Bvh {
+    let tris = lf
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(i, t)| RtTriangle {
+            p0: t.p0,
+            material: t.face,
+            p1: t.p1,
+            prim: i as u32,
+            p2: t.p2,
+            light: vlf_core::pathtrace::NONE,
+        })
+        .collect();
+    Bvh::build(tris)
+}
+
+/// The traced branch's scene on the GPU: the BVH and the corner uvs in leaf order
+/// (`array<vec2<f32>>`, three per triangle). Dummies (one empty leaf) for light fields without
+/// mirrors, which never trace.
+pub struct GpuMirrorScene {
+    pub bvh: GpuBvh,
+    pub uvs: wgpu::Buffer,
+    pub bytes: u64,
+}
+
+impl GpuMirrorScene {
+    pub fn new(device: &wgpu::Device, lf: &LightField) -> Result<Self, RenderError> {
+        let bvh = if has_mirrors(lf) {
+            build_bvh(lf)
+        } else {
+            Bvh::build(Vec::new())
+        };
+        let mut uvs: Vec<[f32; 2]> = (bvh.triangles.iter())
+            .flat_map(|t| lf.shading.uvs[t.prim as usize])
+            .collect();
+        if uvs.is_empty() {
+            uvs.push([0.0; 2]);
+        }
+        let gpu = GpuBvh::upload(device, "FinalRadiance", &bvh).map_err(|e| match e {
+            crate::raytrace::RaytraceError::TooLarge { what, bytes, limit } => {
+                RenderError::TooLarge {
+                    what: what.to_owned(),
+                    bytes,
+                    limit,
+                }
+            }
+            other => RenderError::InvalidLightField(other.to_string()),
+        })?;
+        let uvs = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("FinalRadiance::mirror_uvs"),
+            contents: bytemuck::cast_slice(&uvs),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let bytes = gpu.nodes.size() + gpu.triangles.size() + uvs.size();
+        Ok(Self {
+            bvh: gpu,
+            uvs,
+            bytes,
+        })
+    }
+}
+
+/// CPU specification of pass 5's traced branch: the specular radiance reaching an eye at `eye`
+/// from the visible point `p` of non-diffuse face `face` along the traced chain (see the module
+/// docs), in f32 in the shader's order of operations; `None` where the pixel falls back to its
+/// tiles. `bvh` is [`build_bvh`]`(lf)`, `offsets` `lf.shading.texture_offsets()`.
+pub fn traced_specular(
+    lf: &LightField,
+    bvh: &Bvh,
+    offsets: &[u64],
+    eye: Vec3,
+    face: u32,
+    p: Vec3,
+) -> Option<Vec3> {
+    let f = &lf.faces[face as usize];
+    let n = f.normal();
+    let d = (p - eye).normalize();
+    let side = if visible_side(f, eye, p) == 0 { n } else { -n };
+    let mut throughput = specular_reflectance(lf, face);
+    let mut dir = (d - 2.0 * d.dot(n) * n).normalize();
+    let mut origin = offset_ray_origin(p, side);
+    let mut depth = 1;
+    loop {
+        let hit = bvh.closest_hit(&Ray::new(origin, dir, f32::MAX));
+        if !hit.is_hit() {
+            return Some(throughput * lf.params.sky);
+        }
+        let t = &bvh.triangles[hit.tri as usize];
+        let face = t.material;
+        let [p0, p1, p2] = t.corners();
+        let (b1, b2) = (hit.u, hit.v);
+        let b0 = 1.0 - b1 - b2;
+        let q = p0 * b0 + p1 * b1 + p2 * b2;
+        let f = &lf.faces[face as usize];
+        let n = f.normal();
+        match f.kind {
+            FACE_DIFFUSE => {
+                let uv = lf.shading.uvs[t.prim as usize].map(Vec2::from);
+                let uv = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
+                let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
+                return Some(throughput * surface_radiance(lf, offsets, face, side, q, uv));
+            }
+            FACE_MIRROR if depth < MAX_DEPTH => {
+                throughput *= specular_reflectance(lf, face);
+                let side = if n.dot(-dir) > 0.0 { n } else { -n };
+                dir = (dir - 2.0 * dir.dot(n) * n).normalize();
+                origin = offset_ray_origin(q, side);
+                depth += 1;
+            }
+            // Cut off by the bound, or a mixed face: the pixel's own tiles.
+            _ => return None,
+        }
+    }
+}
