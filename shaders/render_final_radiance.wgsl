@@ -69,6 +69,9 @@ const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
 // texture code no pixel needs is compiled out instead of skipped.
 override BASE_TEXTURES: bool = true;
 override EMISSIVE_TEXTURES: bool = true;
+// Whether the pixels this pipeline shades may show mirror or mixed faces (false compiles the
+// tile and tracing code out).
+override SPECULAR: bool = true;
 // Whether mirror and mixed faces trace their reflection (see the header); false compiles the
 // traversal out.
 override TRACING: bool = false;
@@ -390,7 +393,7 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
         // The side facing the camera: front (0) when the eye is on the normal's side.
         let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
         l = surface_radiance(face, f, side, p, px);
-        if f.kind != FACE_DIFFUSE {
+        if SPECULAR && f.kind != FACE_DIFFUSE {
             var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
             if TRACING {
                 traced = traced_specular(face, f, p);

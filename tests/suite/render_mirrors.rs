@@ -1,7 +1,8 @@
 //! Pass 5's traced mirror branch (vlf_gpu::render::mirror_trace, issue 15 part 1): analytic
 //! scenes (a mirror under a uniform sky reads reflectance × sky exactly; two parallel mirrors
-//! show the geometric series ρ^k × sky up to the depth bound, then the tiles) and the mirror
-//! Cornell box against the CPU specification.
+//! show the geometric series ρ^k × sky up to the depth bound, then the tiles), the mirror
+//! Cornell box against the CPU specification, and the window's stencil-split drawing against
+//! stills.
 
 use glam::{Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, Iterations, LightField};
@@ -9,7 +10,8 @@ use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
 use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
-use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
+use vlf_gpu::render::targets::read_texture;
+use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer, Tonemap};
 use vlf_tests::{gpu, shared_dir};
 
 const W: u32 = 64;
@@ -226,4 +228,84 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
     eprintln!("mirror Cornell box: {checked} traced pixels, relative error at most {worst:.2e}");
     assert!(checked > 300, "{checked} mirror pixels");
     assert!(worst <= 1e-4, "relative error {worst:.2e} > 1e-4");
+}
+
+/// The window's final image (fused display, raw values) of `r` from `cam`.
+fn window_frame(ctx: &GpuContext, r: &mut Renderer, cam: &CameraView) -> Vec<[f32; 4]> {
+    let format = wgpu::TextureFormat::Rgba32Float;
+    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("Test::view_target"),
+        size: wgpu::Extent3d {
+            width: W,
+            height: H,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = target.create_view(&Default::default());
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    r.render_to_view(
+        ctx,
+        &mut encoder,
+        cam,
+        &view,
+        format,
+        W,
+        H,
+        1.0,
+        Tonemap::None,
+    )
+    .unwrap();
+    ctx.queue.submit(Some(encoder.finish()));
+    r.frame_submitted(ctx);
+    read_texture(&ctx.device, &ctx.queue, &target, 16).unwrap()
+}
+
+#[test]
+fn window_draws_mirror_pixels_by_stencil_like_stills() {
+    let Some(ctx) = gpu() else { return };
+    let path = shared_dir().join("scenes/cornell-box-mirror/cornell-mirror.gltf");
+    let scene = vlf_core::scene::load(&path).unwrap();
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(Vec3::ZERO)).unwrap();
+    let cam = CameraView::from_gltf(&lf.cameras[0], &lf.to_vlf);
+    // Split by stencil where the device has the format (lavapipe has): plain diffuse pixels
+    // without mirror code, mirror pixels with it.
+    eprintln!(
+        "window path split by stencil: {}",
+        ctx.device
+            .features()
+            .contains(wgpu::Features::DEPTH32FLOAT_STENCIL8)
+    );
+    let mut r = Renderer::new(ctx, &lf).unwrap();
+    let mut images = Vec::new();
+    for tracing in [true, false] {
+        r.set_mirror_tracing(tracing);
+        let still = r.render_frame_data(ctx, &cam, W, H).unwrap();
+        let shown = window_frame(ctx, &mut r, &cam);
+        let mut mirror_pixels = 0;
+        for (i, px) in shown.iter().enumerate() {
+            let face = still.face_id[i];
+            mirror_pixels +=
+                usize::from(face != NO_FACE && lf.faces[face as usize].kind != FACE_DIFFUSE);
+            let (got, want) = (rgb(*px), rgb(still.radiance[i]));
+            assert!(
+                (got - want).abs().max_element() <= 1e-6,
+                "tracing {tracing}: window pixel {i}: {got} vs still {want}"
+            );
+        }
+        assert!(mirror_pixels > 300, "{mirror_pixels} mirror pixels");
+        images.push(shown);
+    }
+    // The toggle changes the mirror pixels.
+    assert!(
+        images[0].iter().zip(&images[1]).any(|(a, b)| a != b),
+        "tracing on and off render the same window image"
+    );
 }

@@ -1,11 +1,13 @@
 //! Pass 3: face id of the visible surface. The scene's triangles drawn with the camera,
 //! depth-tested (reverse-Z, depth written), no culling; background = [`super::NO_FACE`].
-//! With a stencil ([`DEPTH_STENCIL_FORMAT`]) the triangles of textured faces are drawn
-//! separately with stencil reference [`TEXTURED_STENCIL`], replaced wherever depth passes, so
-//! the stencil ends up marking the pixels whose visible face is textured (0 elsewhere).
+//! With a stencil ([`DEPTH_STENCIL_FORMAT`]) the triangles are drawn in groups by their face's
+//! stencil value ([`super::upload::stencil_value`]: `TEXTURED_STENCIL` for textured faces,
+//! | `MIRROR_STENCIL` for mirror and mixed ones) with that reference, replaced wherever depth
+//! passes, so the stencil ends up marking the pixels whose visible face is textured or a
+//! mirror (0 elsewhere).
 //! Shader: `shaders/render_face_id.wgsl`.
 
-use super::targets::{DEPTH_STENCIL_FORMAT, FACE_ID_FORMAT, TEXTURED_STENCIL, Targets};
+use super::targets::{DEPTH_STENCIL_FORMAT, FACE_ID_FORMAT, Targets};
 use super::upload::GpuLightField;
 use super::{NO_FACE, geometry_pass_layout, geometry_pipeline};
 use crate::shaders;
@@ -13,12 +15,13 @@ use crate::shaders;
 pub struct FaceIdPass {
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
-    /// Whether the depth buffer has a stencil to mark textured faces in.
+    /// Whether the depth buffer has a stencil to mark textured and mirror faces in.
     stencil: bool,
 }
 
 impl FaceIdPass {
-    /// `depth_format`: `DEPTH_FORMAT`, or [`DEPTH_STENCIL_FORMAT`] to mark textured faces.
+    /// `depth_format`: `DEPTH_FORMAT`, or [`DEPTH_STENCIL_FORMAT`] to mark textured and mirror
+    /// faces.
     pub fn new(
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
@@ -66,7 +69,7 @@ impl FaceIdPass {
     }
 
     /// Clears face ids to [`NO_FACE`], depth to 0 (infinitely far) and the stencil to 0, then
-    /// draws the scene (with a stencil: untextured faces, then textured ones).
+    /// draws the scene (with a stencil: one group of triangles per stencil value).
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -103,10 +106,12 @@ impl FaceIdPass {
         pass.set_bind_group(0, globals, &[]);
         pass.set_bind_group(1, &self.bind_group, &[]);
         if self.stencil {
-            pass.set_stencil_reference(0);
-            pass.draw(0..lf.first_textured * 3, 0..1);
-            pass.set_stencil_reference(TEXTURED_STENCIL);
-            pass.draw(lf.first_textured * 3..lf.triangle_count * 3, 0..1);
+            for (s, w) in lf.stencil_starts.windows(2).enumerate() {
+                if w[0] < w[1] {
+                    pass.set_stencil_reference(s as u32);
+                    pass.draw(w[0] * 3..w[1] * 3, 0..1);
+                }
+            }
         } else {
             pass.draw(0..lf.triangle_count * 3, 0..1);
         }

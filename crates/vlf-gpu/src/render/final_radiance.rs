@@ -30,21 +30,26 @@
 //! sample 0 overwrites it, later samples add with weight `1 / sample_count`, giving the mean
 //! over the sub-pixel samples.
 //!
-//! Texture cost: llvmpipe runs both sides of a divergent branch under a mask at every pixel,
-//! so skipping the texture code for untextured faces takes more than a branch:
+//! Texture and mirror cost: llvmpipe runs both sides of a divergent branch under a mask at
+//! every pixel, so skipping the texture code for untextured faces, or the mirror code (tiles,
+//! tracing) for diffuse ones, takes more than a branch:
 //!
 //! * the shader's constants `BASE_TEXTURES` and `EMISSIVE_TEXTURES` compile out the code of the
-//!   kinds of texture the light field does not use ([`TextureKinds`]);
-//! * with textures, in the window ([`FinalRadiancePass::encode_present`]) and where the device
-//!   has a depth-stencil format for it ([`super::targets::DEPTH_STENCIL_FORMAT`]), pass 3
-//!   marks the pixels showing a textured face in the stencil and this pass draws twice, with
-//!   stencil tests: a pipeline without texture code on the unmarked pixels (untextured faces
-//!   and background), one with it on the marked ones. llvmpipe tests the stencil
-//!   before running a shader that writes nothing but its targets, and skips a block of pixels
-//!   that all fail, so untextured faces pay for no texture code. Stills and debug views
-//!   ([`FinalRadiancePass::encode`], `fs_main`) draw once with the texture code: their
-//!   shader writes the accumulation buffer, and a shader with such side effects runs (and
-//!   writes) whatever the stencil says.
+//!   kinds of texture the light field does not use ([`TextureKinds`]), `SPECULAR` and
+//!   `TRACING` the mirror code of light fields without mirrors;
+//! * with textures or mirrors, in the window ([`FinalRadiancePass::encode_present`]) and where
+//!   the device has a depth-stencil format for it ([`super::targets::DEPTH_STENCIL_FORMAT`]),
+//!   pass 3 marks the pixels showing a textured face (`TEXTURED_STENCIL`) or a mirror or mixed
+//!   face (`MIRROR_STENCIL`) in the stencil, and this pass draws once per kind of pixel the
+//!   light field has, with stencil tests: a pipeline with neither texture nor mirror code on
+//!   the unmarked pixels (plain diffuse faces and background), one with texture code on
+//!   textured diffuse faces, one with everything (tracing when on) on mirror pixels. llvmpipe
+//!   tests the stencil before running a shader that writes nothing but its targets, and skips a
+//!   block of pixels that all fail, so only the pixels that show a mirror pay for tracing and
+//!   diffuse-only scenes run no mirror code at all. Stills and debug views
+//!   ([`FinalRadiancePass::encode`], `fs_main`) draw once with all the code: their shader
+//!   writes the accumulation buffer, and a shader with such side effects runs (and writes)
+//!   whatever the stencil says.
 //!
 //! Fused display (window): [`FinalRadiancePass::encode_present`] also writes the exposed,
 //! tonemapped colour straight onto the window's surface as a second colour target, instead of a
@@ -57,7 +62,9 @@ use glam::{Vec2, Vec3};
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
 use super::mirror_trace::GpuMirrorScene;
-use super::targets::{DEPTH_STENCIL_FORMAT, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets};
+use super::targets::{
+    DEPTH_STENCIL_FORMAT, MIRROR_STENCIL, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets,
+};
 use super::upload::{
     FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi,
 };
@@ -88,13 +95,57 @@ impl TextureKinds {
     }
 }
 
-/// One draw of the pass: the shader's texture constants, whether mirror pixels trace
-/// ([`super::mirror_trace`]) and, with a stencil, the stencil value of the pixels it shades.
+/// One draw of the pass: the shader's texture constants, whether it has the mirror code
+/// (`specular`) and traces ([`super::mirror_trace`]) and, with a stencil, the stencil value and
+/// read mask of the pixels it shades.
 #[derive(Clone, Copy, Debug)]
 struct Variant {
     textures: TextureKinds,
+    specular: bool,
     tracing: bool,
-    stencil: Option<u32>,
+    stencil: Option<(u32, u32)>,
+}
+
+/// The draws of the window's final image (see the module docs): with a stencil, one per kind
+/// of pixel the light field has (plain, textured, mirror), each with only the code it needs;
+/// without, one with everything.
+fn present_variants(
+    textures: TextureKinds,
+    mirrors: bool,
+    tracing: bool,
+    stencil: bool,
+) -> Vec<Variant> {
+    let all = Variant {
+        textures,
+        specular: mirrors,
+        tracing,
+        stencil: None,
+    };
+    if !stencil {
+        return vec![all];
+    }
+    let both = TEXTURED_STENCIL | MIRROR_STENCIL;
+    let mut v = vec![Variant {
+        textures: TextureKinds::default(),
+        specular: false,
+        tracing: false,
+        stencil: Some((0, both)),
+    }];
+    if textures.any() {
+        v.push(Variant {
+            specular: false,
+            tracing: false,
+            stencil: Some((TEXTURED_STENCIL, both)),
+            ..all
+        });
+    }
+    if mirrors {
+        v.push(Variant {
+            stencil: Some((MIRROR_STENCIL, MIRROR_STENCIL)),
+            ..all
+        });
+    }
+    v
 }
 
 pub struct FinalRadiancePass {
@@ -161,26 +212,13 @@ impl FinalRadiancePass {
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
         let variants = [false, true].map(|tracing| Variant {
             textures,
+            specular: mirrors,
             tracing,
             stencil: None,
         });
-        let present_variants = variants.map(|variant| {
-            if textures.any() && depth_format == DEPTH_STENCIL_FORMAT {
-                vec![
-                    Variant {
-                        textures: TextureKinds::default(),
-                        stencil: Some(0),
-                        ..variant
-                    },
-                    Variant {
-                        stencil: Some(TEXTURED_STENCIL),
-                        ..variant
-                    },
-                ]
-            } else {
-                vec![variant]
-            }
-        });
+        let stencil = depth_format == DEPTH_STENCIL_FORMAT;
+        let present_variants =
+            [false, true].map(|tracing| present_variants(textures, mirrors, tracing, stencil));
         let pipelines = variants[..1 + usize::from(mirrors)]
             .iter()
             .map(|v| Self::create_pipeline(device, &pipeline_layout, &module, *v, None))
@@ -220,6 +258,7 @@ impl FinalRadiancePass {
         let constants = [
             ("BASE_TEXTURES", flag(variant.textures.base)),
             ("EMISSIVE_TEXTURES", flag(variant.textures.emissive)),
+            ("SPECULAR", flag(variant.specular)),
             ("TRACING", flag(variant.tracing)),
         ];
         let equal = wgpu::StencilFaceState {
@@ -228,18 +267,20 @@ impl FinalRadiancePass {
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op: wgpu::StencilOperation::Keep,
         };
-        let depth_stencil = variant.stencil.map(|_| wgpu::DepthStencilState {
-            format: DEPTH_STENCIL_FORMAT,
-            depth_write_enabled: Some(false),
-            depth_compare: Some(wgpu::CompareFunction::Always),
-            stencil: wgpu::StencilState {
-                front: equal,
-                back: equal,
-                read_mask: 0xff,
-                write_mask: 0,
-            },
-            bias: Default::default(),
-        });
+        let depth_stencil = variant
+            .stencil
+            .map(|(_, read_mask)| wgpu::DepthStencilState {
+                format: DEPTH_STENCIL_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: wgpu::StencilState {
+                    front: equal,
+                    back: equal,
+                    read_mask,
+                    write_mask: 0,
+                },
+                bias: Default::default(),
+            });
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,
@@ -437,7 +478,7 @@ impl FinalRadiancePass {
         pass.set_bind_group(1, bind_group, &[]);
         for (v, pipeline) in variants.iter().zip(pipelines) {
             pass.set_pipeline(pipeline);
-            if let Some(r) = v.stencil {
+            if let Some((r, _)) = v.stencil {
                 pass.set_stencil_reference(r);
             }
             pass.draw(0..3, 0..1);

@@ -8,8 +8,9 @@
 //! 2. [`barycentrics`]: the same mesh with one-hot vertex colours → the view direction's
 //!    barycentric weights (`Rgba32Float`), equal to `DirectionSet::lookup`'s.
 //! 3. [`face_id`]: the scene, depth-tested → face id of the visible surface (`R32Uint`,
-//!    [`NO_FACE`] for background); for textured light fields also a stencil marking the pixels
-//!    whose visible face is textured (so that pass 5 runs texture code for those only).
+//!    [`NO_FACE`] for background); for light fields with textures or mirrors also a stencil
+//!    marking the pixels whose visible face is textured or a mirror (so that pass 5 runs
+//!    texture code and mirror code for those only).
 //! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
 //!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`).
 //! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
@@ -216,8 +217,8 @@ pub struct Renderer {
     timer: Option<GpuTimer>,
     debug_view: Pass,
     sky: glam::Vec3,
-    /// Format of the depth buffer of passes 3–4 (with a stencil marking textured faces when
-    /// the light field has textures and the device the format; see [`final_radiance`]).
+    /// Format of the depth buffer of passes 3–4 (with a stencil marking textured and mirror
+    /// faces when the light field has them and the device the format; see [`final_radiance`]).
     depth_format: wgpu::TextureFormat,
 }
 
@@ -229,7 +230,7 @@ impl Renderer {
         let mirror_scene = GpuMirrorScene::new(device, lf)?;
         let mirrors = mirror_trace::has_mirrors(lf);
         let textures = final_radiance::TextureKinds::of(lf);
-        let depth_format = if textures.any()
+        let depth_format = if (textures.any() || mirrors)
             && device
                 .features()
                 .contains(wgpu::Features::DEPTH32FLOAT_STENCIL8)

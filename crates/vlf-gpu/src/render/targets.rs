@@ -16,13 +16,16 @@ pub const UV_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Depth of passes 3–4 (reverse-Z: cleared to 0, greater is nearer).
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// [`DEPTH_FORMAT`] with a stencil, used for textured light fields when the device has
-/// `DEPTH32FLOAT_STENCIL8`: pass 3 writes [`TEXTURED_STENCIL`] where a textured face is seen
-/// and pass 5 shades those pixels, and only those, with its texture code (see
+/// [`DEPTH_FORMAT`] with a stencil, used for light fields with textures or mirrors when the
+/// device has `DEPTH32FLOAT_STENCIL8`: pass 3 writes [`TEXTURED_STENCIL`] where a textured face
+/// is seen and [`MIRROR_STENCIL`] where a mirror or mixed face is, and pass 5 shades those
+/// pixels, and only those, with its texture code and its mirror code (tiles or tracing) (see
 /// [`super::final_radiance`]).
 pub const DEPTH_STENCIL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32FloatStencil8;
-/// Stencil value of pixels showing a textured face (0 elsewhere).
+/// Stencil bit of pixels showing a textured face (0 elsewhere).
 pub const TEXTURED_STENCIL: u32 = 1;
+/// Stencil bit of pixels showing a mirror or mixed face (0 elsewhere).
+pub const MIRROR_STENCIL: u32 = 2;
 
 /// Textures and buffers holding one frame's pass outputs.
 pub struct Targets {

@@ -2,9 +2,10 @@
 //! read out of range.
 //!
 //! * Geometry, the triangles' corner uvs and the direction set's sphere mesh: storage buffers,
-//!   read by vertex shaders only (a few invocations per triangle). The triangles of textured
-//!   faces are uploaded after the others (`GpuLightField::first_textured`), so that pass 3 can
-//!   draw them with their own stencil value; each keeps its face index, so no output changes.
+//!   read by vertex shaders only (a few invocations per triangle). The triangles are uploaded
+//!   grouped by their face's stencil value ([`stencil_value`]: textured, mirror), in that
+//!   order (`GpuLightField::stencil_starts`), so that pass 3 can draw each group with its own
+//!   stencil value; each keeps its face index, so no output changes.
 //! * Per-pixel data of pass 5 — the irradiance atlas, the face records and the textures — are
 //!   2D textures read with `textureLoad`: on lavapipe a per-pixel, non-uniformly indexed
 //!   storage-buffer read costs several times a texel fetch (measured: reading one `vec4` per
@@ -47,6 +48,7 @@ use vlf_core::lightfield::{
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
+use super::targets::{MIRROR_STENCIL, TEXTURED_STENCIL};
 
 /// Width of the atlas texture (elements per row).
 pub const ATLAS_WIDTH: u32 = 4096;
@@ -64,12 +66,12 @@ pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
-    /// The triangles, those of textured faces last (see the module docs).
+    /// The triangles, grouped by [`stencil_value`] (see the module docs).
     pub triangles: wgpu::Buffer,
     pub triangle_count: u32,
-    /// Index of the first triangle of a textured face in [`triangles`](Self::triangles)
-    /// (`triangle_count` without textures).
-    pub first_textured: u32,
+    /// Index in [`triangles`](Self::triangles) of the first triangle of stencil value `s`, for
+    /// `s` in 0..4, then `triangle_count`.
+    pub stencil_starts: [u32; 5],
     pub face_count: u32,
     /// `TEXCOORD_0` per triangle corner (vec2, three per triangle, in the order of
     /// [`triangles`](Self::triangles)).
@@ -137,6 +139,19 @@ pub fn specular_reflectance(f: &BakeFace, m: &SurfaceMaterial) -> glam::Vec3 {
     glam::Vec3::from(m.base_color) * f.specular
 }
 
+/// The stencil value pass 3 writes for face `f` of material `m`: [`TEXTURED_STENCIL`] if pass
+/// 5 reads a texture for it, | [`MIRROR_STENCIL`] if it has a specular part.
+pub fn stencil_value(f: &BakeFace, m: &SurfaceMaterial) -> u32 {
+    let mut s = 0;
+    if is_textured(m) {
+        s |= TEXTURED_STENCIL;
+    }
+    if f.kind != vlf_core::lightfield::FACE_DIFFUSE {
+        s |= MIRROR_STENCIL;
+    }
+    s
+}
+
 /// Whether pass 5 reads a texture for faces of material `m`.
 pub fn is_textured(m: &SurfaceMaterial) -> bool {
     face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
@@ -188,17 +203,20 @@ impl GpuLightField {
                 }),
             )
         };
-        // Triangles of untextured faces first, then those of textured ones (stable order).
+        // Triangles grouped by stencil value (stable order).
         let sh = &lf.shading;
-        let textured = |t: &BakeTriangle| {
-            is_textured(&sh.materials[lf.faces[t.face as usize].material as usize])
+        let stencil = |t: &BakeTriangle| {
+            let f = &lf.faces[t.face as usize];
+            stencil_value(f, &sh.materials[f.material as usize])
         };
         let mut order: Vec<usize> = (0..lf.triangles.len()).collect();
-        order.sort_by_key(|&i| textured(&lf.triangles[i]));
-        let first_textured = order
-            .iter()
-            .position(|&i| textured(&lf.triangles[i]))
-            .unwrap_or(order.len()) as u32;
+        order.sort_by_key(|&i| stencil(&lf.triangles[i]));
+        let stencil_starts = [0, 1, 2, 3, 4].map(|s| {
+            order
+                .iter()
+                .position(|&i| stencil(&lf.triangles[i]) >= s)
+                .unwrap_or(order.len()) as u32
+        });
         let tris: Vec<BakeTriangle> = order.iter().map(|&i| lf.triangles[i]).collect();
         let corner_uvs: Vec<[[f32; 2]; 3]> = order.iter().map(|&i| sh.uvs[i]).collect();
         let triangles = buffer(
@@ -336,7 +354,7 @@ impl GpuLightField {
             frames_view,
             triangles,
             triangle_count: lf.triangles.len() as u32,
-            first_textured,
+            stencil_starts,
             face_count: lf.faces.len() as u32,
             uvs,
             faces_view,
