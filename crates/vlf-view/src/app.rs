@@ -36,6 +36,7 @@ struct Options {
     exposure: f32,
     tonemap: Tonemap,
     debug_view: Pass,
+    mirror_tracing: bool,
     /// Exit after this many frames.
     frames: Option<u64>,
     /// Screenshot to save before exiting after `frames`.
@@ -59,6 +60,7 @@ pub fn run_window(lf: LightField, camera: CameraView, cli: &Cli) -> anyhow::Resu
         exposure: cli.exposure,
         tonemap: cli.tonemap.into(),
         debug_view: cli.debug_view.into(),
+        mirror_tracing: cli.mirror_tracing.into(),
         frames: cli.frames,
         screenshot: cli.screenshot.clone(),
     };
@@ -103,6 +105,8 @@ struct UiState {
     exposure: f32,
     tonemap: Tonemap,
     debug_view: Pass,
+    /// Whether mirror pixels trace their reflections (pass 5's traced branch).
+    mirror_tracing: bool,
     /// Index of the glTF camera chosen in the panel.
     camera: usize,
     screenshot: bool,
@@ -272,6 +276,7 @@ impl Gfx {
         surface.configure(&ctx.device, &config);
         let mut renderer = Renderer::new(&ctx, lf)?;
         renderer.set_debug_view(opts.debug_view);
+        renderer.set_mirror_tracing(opts.mirror_tracing);
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),
@@ -306,6 +311,7 @@ impl Gfx {
                 exposure: opts.exposure,
                 tonemap: opts.tonemap,
                 debug_view: opts.debug_view,
+                mirror_tracing: opts.mirror_tracing,
                 camera: 0,
                 screenshot: false,
                 panel: true,
@@ -357,6 +363,7 @@ impl Gfx {
             self.cam.view = CameraView::from_gltf(&lf.cameras[i], &lf.to_vlf);
         }
         self.renderer.set_debug_view(self.ui.debug_view);
+        self.renderer.set_mirror_tracing(self.ui.mirror_tracing);
         self.egui_state
             .handle_platform_output(&self.window, full_output.platform_output);
         // egui's texture changes must all be applied (its debug builds panic otherwise): new
@@ -637,6 +644,14 @@ fn panel(
                 ui.radio_value(&mut state.tonemap, Tonemap::Clamp, "linear");
                 ui.radio_value(&mut state.tonemap, Tonemap::Aces, "ACES");
             });
+            if vlf_gpu::render::mirror_trace::has_mirrors(lf) {
+                // Its cost is in the final-radiance pass time above.
+                ui.checkbox(&mut state.mirror_tracing, "trace mirror reflections")
+                    .on_hover_text(
+                        "on: mirror pixels trace their reflection through the scene; \
+                         off: they read the baked mirror tiles (cost: final-radiance time)",
+                    );
+            }
             ui.separator();
 
             ui.label("Debug view");

@@ -79,6 +79,12 @@ pub struct Cli {
     #[arg(long, value_enum, default_value_t = TonemapArg::Clamp)]
     pub tonemap: TonemapArg,
 
+    /// Mirror and mixed faces trace their reflection through the scene (on) or read their
+    /// baked tiles (off): stills, --bench-frames and the window's start state (its panel has
+    /// the switch).
+    #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOffArg::On)]
+    pub mirror_tracing: OnOffArg,
+
     /// Show (or write, with --still) a pass output instead of the final image.
     #[arg(long, value_enum, default_value_t = DebugViewArg::FinalRadiance)]
     pub debug_view: DebugViewArg,
@@ -112,6 +118,18 @@ fn parse_point(s: &str) -> Result<glam::Vec3, String> {
     match v.as_deref() {
         Ok([x, y, z]) if [x, y, z].iter().all(|c| c.is_finite()) => Ok(glam::Vec3::new(*x, *y, *z)),
         _ => Err(format!("expected x,y,z (three finite numbers), got `{s}`")),
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOffArg {
+    On,
+    Off,
+}
+
+impl From<OnOffArg> for bool {
+    fn from(v: OnOffArg) -> bool {
+        v == OnOffArg::On
     }
 }
 
@@ -186,6 +204,17 @@ mod tests {
             Cli::try_parse_from(["vlf-view", "a.vlf", "--still", "o.png", "--exposure", "-2"])
                 .unwrap();
         assert_eq!(cli.exposure, -2.0);
+        assert_eq!(cli.mirror_tracing, OnOffArg::On);
+        let cli = Cli::try_parse_from([
+            "vlf-view",
+            "a.vlf",
+            "--still",
+            "o.exr",
+            "--mirror-tracing",
+            "off",
+        ])
+        .unwrap();
+        assert!(!bool::from(cli.mirror_tracing));
         assert!(Cli::try_parse_from(["vlf-view", "a.vlf", "--screenshot", "s.png"]).is_err());
     }
 }

@@ -123,7 +123,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         image_kind(out)?;
         let (w, h) = cli.size.unwrap_or((512, 512));
         let ctx = GpuContext::new(&DeviceOptions::default())?;
-        let img = still(&ctx, &lf, &camera, w, h, cli.spp, cli.debug_view.into())?;
+        let mut renderer = Renderer::new(&ctx, &lf)?;
+        renderer.set_mirror_tracing(cli.mirror_tracing.into());
+        let img = still_with(
+            &mut renderer,
+            &ctx,
+            &camera,
+            w,
+            h,
+            cli.spp,
+            cli.debug_view.into(),
+        )?;
         write_image(out, &img, cli.exposure, cli.tonemap.into())?;
         let spp = if cli.debug_view == cli::DebugViewArg::FinalRadiance {
             cli.spp
@@ -136,7 +146,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(n) = cli.bench_frames {
         let (w, h) = cli.size.unwrap_or((1024, 768));
         let ctx = GpuContext::new(&DeviceOptions::default())?;
-        let report = bench(&ctx, &lf, &camera, w, h, n, cli.debug_view.into())?;
+        let mut renderer = Renderer::new(&ctx, &lf)?;
+        renderer.set_mirror_tracing(cli.mirror_tracing.into());
+        let report = bench(&ctx, &mut renderer, &camera, w, h, n, cli.debug_view.into())?;
         println!("{report}");
         return Ok(());
     }
@@ -252,6 +264,8 @@ pub struct BenchReport {
     pub width: u32,
     pub height: u32,
     pub frames: u32,
+    /// Whether mirror pixels traced their reflections (false without mirrors).
+    pub mirror_tracing: bool,
     /// Wall-clock milliseconds per frame (encode, submit, wait), sorted.
     pub frame_ms: Vec<f64>,
     /// Mean GPU milliseconds per pass ([`TIMED_PASSES`] order), when timestamps exist.
@@ -275,11 +289,12 @@ impl std::fmt::Display for BenchReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(
             f,
-            "{} frames at {}×{} on {}: mean {:.2} ms, median {:.2} ms, min {:.2} ms, max {:.2} ms ({:.1} fps)",
+            "{} frames at {}×{} on {}, mirror tracing {}: mean {:.2} ms, median {:.2} ms, min {:.2} ms, max {:.2} ms ({:.1} fps)",
             self.frames,
             self.width,
             self.height,
             self.adapter,
+            if self.mirror_tracing { "on" } else { "off" },
             self.mean_ms(),
             self.median_ms(),
             self.frame_ms.first().copied().unwrap_or(0.0),
@@ -300,17 +315,17 @@ impl std::fmt::Display for BenchReport {
 }
 
 /// Renders `frames` interactive frames (five passes + display onto an sRGB 8-bit target, like
-/// the window's surface) one after another, waiting for each, after one warm-up frame.
+/// the window's surface) with `renderer` one after another, waiting for each, after one
+/// warm-up frame.
 pub fn bench(
     ctx: &GpuContext,
-    lf: &LightField,
+    renderer: &mut Renderer,
     camera: &CameraView,
     width: u32,
     height: u32,
     frames: u32,
     view: Pass,
 ) -> anyhow::Result<BenchReport> {
-    let mut renderer = Renderer::new(ctx, lf)?;
     renderer.set_debug_view(view);
     let format = wgpu::TextureFormat::Bgra8UnormSrgb;
     let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
@@ -379,6 +394,7 @@ pub fn bench(
         width,
         height,
         frames,
+        mirror_tracing: renderer.mirror_tracing(),
         frame_ms,
         pass_ms: pass_sum.map(|s| s.into_iter().map(|v| v / f64::from(pass_frames)).collect()),
     })
