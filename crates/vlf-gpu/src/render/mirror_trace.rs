@@ -36,9 +36,9 @@ use super::final_radiance::{surface_radiance, visible_side};
 use crate::raytrace::GpuBvh;
 
 /// Mirrors a traced chain follows, the visible one included, before it falls back to the
-/// tiles. Equal to `vlf_core::resample::MAX_DEPTH` (the mirror-tile resampling traces the same
-/// chains); the WGSL constant `MIRROR_DEPTH` is checked against it.
-pub const MAX_DEPTH: u32 = 8;
+/// tiles: the mirror-tile resampling's bound (it traces the same chains once per tile cell).
+/// The WGSL constant `MIRROR_DEPTH` is checked against it.
+pub use vlf_core::resample::MAX_DEPTH;
 
 /// Whether `lf` has faces with a specular part (mirror or mixed): only then does pass 5 trace.
 pub fn has_mirrors(lf: &LightField) -> bool {
