@@ -61,7 +61,6 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
-use super::mirror_trace::GpuMirrorScene;
 use super::targets::{
     DEPTH_STENCIL_FORMAT, MIRROR_STENCIL, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets,
 };
@@ -69,6 +68,7 @@ use super::upload::{
     FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi,
 };
 use super::{storage_entry, texture_entry};
+use crate::raytrace::GpuBvh;
 use crate::shaders;
 
 /// The kinds of texture a light field's faces read (faces with a diffuse part and a
@@ -323,13 +323,15 @@ impl FinalRadiancePass {
         })
     }
 
-    /// The pass's resources for one set of targets (rebuilt when the view is resized).
+    /// The pass's resources for one set of targets (rebuilt when the view is resized), with the
+    /// mirror-tracing BVH and its leaf-order uvs (`super::mirror_trace::GpuMirrorScene`).
     pub fn bind(
         &self,
         device: &wgpu::Device,
         targets: &Targets,
         lf: &GpuLightField,
-        mirror_scene: &GpuMirrorScene,
+        mirror_bvh: &GpuBvh,
+        mirror_uvs: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let tex = |binding, view| wgpu::BindGroupEntry {
             binding,
@@ -341,11 +343,11 @@ impl FinalRadiancePass {
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: mirror_scene.bvh.nodes.as_entire_binding(),
+                    resource: mirror_bvh.nodes.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: mirror_scene.bvh.triangles.as_entire_binding(),
+                    resource: mirror_bvh.triangles.as_entire_binding(),
                 },
                 tex(2, &targets.face_id_view),
                 tex(3, &targets.position_view),
@@ -365,7 +367,7 @@ impl FinalRadiancePass {
                 tex(14, &targets.barycentrics_view),
                 wgpu::BindGroupEntry {
                     binding: 15,
-                    resource: mirror_scene.uvs.as_entire_binding(),
+                    resource: mirror_uvs.as_entire_binding(),
                 },
             ],
         })

@@ -368,9 +368,13 @@ impl Renderer {
             return Ok(());
         }
         let targets = Targets::new(device, width, height, self.depth_format)?;
-        let final_bind_group =
-            self.final_radiance
-                .bind(device, &targets, &self.light_field, &self.mirror_scene);
+        let final_bind_group = self.final_radiance.bind(
+            device,
+            &targets,
+            &self.light_field,
+            &self.mirror_scene.bvh,
+            &self.mirror_scene.uvs,
+        );
         let display_bind_group = self.display.bind(device, &targets);
         self.frame = Some(Frame {
             targets,
