@@ -1,6 +1,7 @@
 // Bake pass 4 (per transport direction, scenes with mirrors/mixed faces): the reflect step.
 //
-// One invocation per cell of every destination tile slot of this direction's reflect items.
+// One invocation per cell of every destination tile slot of this direction's reflect items
+// (the three directions around the reflected one for a mirror, the lobe's for a glossy face).
 // A destination cell (fixed direction j, sense s) of a non-diffuse face maps through the face's
 // plane back into the current PSF, finds the nearest ray crossing the face there, and adds
 // weight × the radiance arriving at that crossing (sky or sun entering through an open end
@@ -117,5 +118,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
     let sense = (it.senses >> 1u) & 1u;
     let vi = (it.slot * 2u + sense) * m2 + local;
-    next_tiles[vi] += vec4<f32>(arriving * it.weight.xyz, 0.0);
+    // w: what the lobe absorbed (`loss` × the reflected rgb), for the energy bookkeeping.
+    let c = arriving * it.weight.xyz;
+    next_tiles[vi] += vec4<f32>(c, (c.x + c.y + c.z) * it.weight.w);
 }

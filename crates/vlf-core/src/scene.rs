@@ -158,29 +158,71 @@ pub struct TexRef {
     pub texcoord: u32,
 }
 
-/// How a surface reflects; derived from the glTF metallic (m) and roughness (r)
-/// factors (missing factors default to 1 as in the glTF spec):
+/// Metallic factor at or below which a material is purely Lambertian
+/// (`shared/reference/README.md`).
+pub const DIFFUSE_MAX_METALLIC: f32 = 0.01;
+/// Metallic factor at or above which a material is purely metal.
+pub const METAL_MIN_METALLIC: f32 = 0.99;
+/// Roughness at or below which the metal lobe is a perfect mirror.
+pub const MIRROR_MAX_ROUGHNESS: f32 = 0.05;
+
+/// Lobes of a glTF (metallic, roughness) pair under the conventions of
+/// `shared/reference/README.md`: `(diffuse weight, GGX α)`; the metal lobe has weight
+/// `1 − diffuse weight`, and α = 0 means it is a perfect mirror (α = r² otherwise).
+pub fn lobes(metallic: f32, roughness: f32) -> (f32, f32) {
+    let w_diffuse = if metallic <= DIFFUSE_MAX_METALLIC {
+        1.0
+    } else if metallic >= METAL_MIN_METALLIC {
+        0.0
+    } else {
+        1.0 - metallic
+    };
+    let alpha = if roughness <= MIRROR_MAX_ROUGHNESS {
+        0.0
+    } else {
+        roughness * roughness
+    };
+    (w_diffuse, alpha)
+}
+
+/// Which lobes a surface has; derived from the glTF metallic factor m (missing factors
+/// default to 1 as in the glTF spec). The metal lobe is a perfect mirror of reflectance C
+/// when the roughness r ≤ 0.05 and a GGX lobe with α = r² and reflectance C otherwise (no
+/// Fresnel; [`Material::specular_alpha`]); how the baker models it (mirror, directional
+/// tiles, or folded into the diffuse part) is its own choice (`bake::glossy`).
 ///
-/// | m, r | kind |
+/// | m | kind |
 /// |---|---|
 /// | m ≤ 0.01 | [`Diffuse`](MaterialKind::Diffuse), albedo C |
-/// | m ≥ 0.99, r ≤ 0.05 | [`Mirror`](MaterialKind::Mirror), reflectance C |
-/// | 0.01 < m < 0.99, r ≤ 0.05 | [`Mixed`](MaterialKind::Mixed) `{ specular: m }` |
-/// | m > 0.01, 0.05 < r ≤ 0.3 | glossy, not supported: as if r ≤ 0.05 (Mirror/Mixed), with a warning |
-/// | m > 0.01, r > 0.3 | glossy, not supported: Diffuse with albedo C, with a warning |
+/// | m ≥ 0.99 | [`Mirror`](MaterialKind::Mirror): the metal lobe alone |
+/// | 0.01 < m < 0.99 | [`Mixed`](MaterialKind::Mixed) `{ specular: m }` |
 ///
 /// (C = base colour factor × base-colour texture.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum MaterialKind {
     /// Lambertian reflection with albedo C.
     Diffuse,
-    /// Perfect mirror with reflectance C at every angle (no Fresnel).
+    /// The metal lobe alone, reflectance C at every angle (no Fresnel): a perfect mirror, or a
+    /// GGX lobe when rough.
     Mirror,
-    /// `(1 − specular)·Lambert(C) + specular·Mirror(C)`.
+    /// `(1 − specular)·Lambert(C) + specular·metal(C)`.
     Mixed {
-        /// Weight of the mirror lobe (the metallic factor), in (0.01, 0.99).
+        /// Weight of the metal lobe (the metallic factor), in (0.01, 0.99).
         specular: f32,
     },
+}
+
+impl MaterialKind {
+    /// The kind of a metallic factor (the thresholds of [`lobes`]).
+    pub fn from_metallic(metallic: f32) -> MaterialKind {
+        if metallic <= DIFFUSE_MAX_METALLIC {
+            MaterialKind::Diffuse
+        } else if metallic >= METAL_MIN_METALLIC {
+            MaterialKind::Mirror
+        } else {
+            MaterialKind::Mixed { specular: metallic }
+        }
+    }
 }
 
 /// A surface material (see [`MaterialKind`] for the reflection model).
@@ -217,7 +259,7 @@ impl Material {
         }
     }
 
-    /// Weight of the mirror lobe: 0, 1 or `specular`.
+    /// Weight of the metal lobe: 0, 1 or `specular`.
     pub fn specular_weight(&self) -> f32 {
         1.0 - self.diffuse_weight()
     }
@@ -228,7 +270,13 @@ impl Material {
         self.base_color * self.diffuse_weight()
     }
 
-    /// Mirror reflectance `specular_weight × base_color` (multiply by the
+    /// GGX α of the metal lobe (`roughness²`), 0 when it is a perfect mirror
+    /// (roughness ≤ [`MIRROR_MAX_ROUGHNESS`]).
+    pub fn specular_alpha(&self) -> f32 {
+        lobes(1.0, self.roughness).1
+    }
+
+    /// Metal-lobe reflectance `specular_weight × base_color` (multiply by the
     /// base-colour texture where there is one).
     pub fn specular_reflectance(&self) -> Vec3 {
         self.base_color * self.specular_weight()

@@ -110,7 +110,7 @@ pub struct BakeDirection {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ReflectItem {
-    /// ρ_s × barycentric × ΔΩ_t / W_v (rgb); w unused.
+    /// The job's weight (rgb: `ReflectJob::weight`) and its loss (w: `ReflectJob::loss`).
     pub weight: [f32; 4],
     pub slot: u32,
     pub face: u32,

@@ -6,6 +6,7 @@
 //! sort (exact per-ray depth lists) and float-atomic scatter (per-texel gather).
 
 pub mod auto;
+pub mod glossy;
 pub mod prep;
 pub mod quality;
 pub mod reference;

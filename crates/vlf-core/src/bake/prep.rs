@@ -14,6 +14,8 @@
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
 
+use super::glossy::{self, SpecularModel};
+use crate::directions::DirectionSet;
 use crate::lightfield::{
     BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
 };
@@ -43,8 +45,14 @@ pub struct BakeScene {
     pub albedo: Vec<[f32; 4]>,
     /// Emitted radiance per texel (front side only; rgb, a unused).
     pub emission: Vec<[f32; 4]>,
-    /// Mirror reflectance per face (rgb; zero for diffuse faces).
+    /// Metal-lobe reflectance per face (rgb; zero for faces without directional tiles).
     pub specular: Vec<[f32; 4]>,
+    /// How each face's metal lobe is modelled ([`glossy::model`]): the faces with
+    /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors or glossy.
+    pub lobes: Vec<SpecularModel>,
+    /// Every material as baked (its lobe's model, the reflectance of its two parts), by
+    /// material index: what a reader of the propagated field multiplies it by.
+    pub materials: Vec<glossy::BakedMaterial>,
     /// Suns in VLF: (travel direction, irradiance).
     pub suns: Vec<(Vec3, Vec3)>,
     pub texel_size: f32,
@@ -52,16 +60,27 @@ pub struct BakeScene {
 }
 
 impl BakeScene {
-    /// Prepares `scene` for a bake with `params` (texel size from the ray spacing).
+    /// Prepares `scene` for a bake with `params` (texel size from the ray spacing, metal lobes
+    /// modelled for its direction set).
     pub fn new(scene: &Scene, params: &BakeParams) -> Result<Self, ParamsError> {
         params.validate()?;
         let cell = 2.0 / params.resolution as f32;
-        Self::with_texel_size(scene, cell * params.texel_scale)
+        let spacing = DirectionSet::at_least(params.directions)
+            .ok()
+            .map(|set| glossy::spacing(&set));
+        Self::prepare(scene, cell * params.texel_scale, spacing)
     }
 
-    /// Prepares `scene` with atlas texels of edge `texel_size` (VLF units).
+    /// Prepares `scene` with atlas texels of edge `texel_size` (VLF units), with no direction
+    /// set in view: every metal lobe that is not folded into the diffuse part is modelled as a
+    /// mirror (what the final gather's atlases need: albedo and emission).
     pub fn with_texel_size(scene: &Scene, texel_size: f32) -> Result<Self, ParamsError> {
+        Self::prepare(scene, texel_size, None)
+    }
+
+    fn prepare(scene: &Scene, texel_size: f32, spacing: Option<f32>) -> Result<Self, ParamsError> {
         let xf = scene.to_vlf;
+        let baked = glossy::baked_materials(&scene.materials, spacing);
         let warnings = Vec::new();
 
         let triangles: Vec<BakeTriangle> = scene
@@ -86,6 +105,7 @@ impl BakeScene {
             let height = ((extent.y / texel_size).ceil() as u32).max(1);
             let origin = xf.apply(f.basis.origin);
             let (kind, specular) = match mat.kind {
+                _ if !baked[f.material as usize].model.has_tiles() => (FACE_DIFFUSE, 0.0),
                 MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
                 MaterialKind::Mirror => (FACE_MIRROR, 1.0),
                 MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
@@ -181,7 +201,7 @@ impl BakeScene {
                     Some(m) if m.weight[i] > 0.0 => m.sum[k][i] / m.weight[i],
                     _ => tex.map_or(Vec3::ONE, |t| t.bilinear(uv).truncate()),
                 };
-                let mut base = mat.diffuse_albedo();
+                let mut base = baked[f.material as usize].diffuse;
                 if base_tex.is_some() {
                     base *= mean(0, base_tex);
                 }
@@ -204,12 +224,12 @@ impl BakeScene {
         let specular = scene
             .faces
             .iter()
-            .map(|f| {
-                scene.materials[f.material as usize]
-                    .specular_reflectance()
-                    .extend(0.0)
-                    .into()
-            })
+            .map(|f| baked[f.material as usize].specular.extend(0.0).into())
+            .collect();
+        let lobes = scene
+            .faces
+            .iter()
+            .map(|f| baked[f.material as usize].model)
             .collect();
         let suns = scene
             .suns
@@ -224,6 +244,8 @@ impl BakeScene {
             albedo,
             emission,
             specular,
+            lobes,
+            materials: baked,
             suns,
             texel_size,
             warnings,

@@ -82,7 +82,8 @@ impl<'a> Field<'a> {
     /// uv / π × the atlas' irradiance there.
     pub fn diffuse(&self, s: &SurfaceHit) -> Vec3 {
         let m = &self.scene.materials[s.material as usize];
-        let mut rho = m.diffuse_albedo();
+        // The diffuse albedo the bake used (a rough metal folded into it included).
+        let mut rho = self.atlas.materials[s.material as usize].diffuse;
         if rho == Vec3::ZERO {
             return Vec3::ZERO;
         }

@@ -187,6 +187,7 @@ pub(super) fn run_iteration(
             .sum::<f64>();
         let (set, grid) = (host.set, &host.setup.grid);
         e.sent += reference::tile_power(&sp.index, &state.unshot_tiles, set, grid);
+        e.absorbed += reference::take_tile_loss(&sp.index, &mut next_tiles, set, grid);
         e.next += reference::tile_power(&sp.index, &next_tiles, set, grid);
         reference::accumulate(&mut state.total_tiles, &next_tiles);
         state.unshot_tiles = next_tiles;

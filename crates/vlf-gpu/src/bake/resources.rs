@@ -56,7 +56,7 @@ fn tile_data(spec: &SpecularSetup) -> TileData {
             let k = mf * ix.directions as usize + job.j as usize;
             for slot in ix.index_start[k]..ix.index_start[k + 1] {
                 items.push(ReflectItem {
-                    weight: job.weight.extend(0.0).to_array(),
+                    weight: job.weight.extend(job.loss).to_array(),
                     slot,
                     face: job.face,
                     j: job.j,

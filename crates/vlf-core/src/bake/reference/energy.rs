@@ -146,6 +146,31 @@ pub fn tile_power(
     p
 }
 
+/// Power the glossy lobes absorbed in one iteration: the fourth components the reflect step
+/// wrote (`ReflectJob::loss` × what it reflected), weighted as [`tile_power`] weights
+/// radiance. Clears them, so the values hold radiance alone from then on.
+pub fn take_tile_loss(
+    index: &TileIndex,
+    values: &mut [[f32; 4]],
+    set: &DirectionSet,
+    grid: &PsfGrid,
+) -> f64 {
+    let m2 = (index.m * index.m) as usize;
+    let a = f64::from(grid.cell_size() * grid.cell_size());
+    let mut p = 0f64;
+    for k in 0..index.index_start.len() - 1 {
+        let j = k % index.directions as usize;
+        let omega = f64::from(set.solid_angle(j as u32));
+        for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
+            for v in &mut values[slot * 2 * m2..(slot + 1) * 2 * m2] {
+                p += f64::from(v[3]) * a * omega;
+                v[3] = 0.0;
+            }
+        }
+    }
+    p
+}
+
 /// (maximum iterations, convergence threshold or 0) of a stopping rule.
 pub fn stopping(rule: Iterations) -> (u32, f32) {
     match rule {

@@ -3,6 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::MIN_COS;
 use super::cells::CellLists;
 use super::interface::Interface;
 use crate::bake::BakeScene;
@@ -142,8 +143,6 @@ pub fn sample_texel(
     }
 }
 
-/// Directions closer than this to a face's plane (|cos θ|) carry no light to it.
-pub const MIN_COS: f32 = 1e-6;
 /// Cells searched around a texel that no ray crosses.
 pub const FALLBACK_RADIUS: i64 = 2;
 

@@ -31,16 +31,19 @@ mod cells;
 mod energy;
 mod gather;
 mod interface;
+mod lobe;
 mod reflect;
 mod tiles;
 mod transport;
 
 pub use cells::{Bins, CellLists, bin_triangles, build_cell_lists, project, ray_hit};
 pub use energy::{
-    EnergyStats, IterationEnergy, TexelAccum, accumulate, finish_iteration, stopping, tile_power,
+    EnergyStats, IterationEnergy, TexelAccum, accumulate, finish_iteration, stopping,
+    take_tile_loss, tile_power,
 };
-pub use gather::{FALLBACK_RADIUS, MIN_COS, TexelSample, sample_texel};
+pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
 pub use interface::{Interface, interface};
+pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe};
 pub use reflect::{nearest_crossing, reflect};
 pub use tiles::{
     ReflectJob, Specular, SpecularSetup, SpecularStep, reflect_jobs, specular_outgoing, tile_index,
@@ -54,6 +57,9 @@ use crate::directions::DirectionSet;
 use crate::lightfield::{BakeParams, TileIndex};
 use crate::psf::PsfGrid;
 use energy::power;
+
+/// Directions closer than this to a face's plane (|cos θ|) carry no light to it.
+pub const MIN_COS: f32 = 1e-6;
 
 /// The result of a propagation: irradiance per texel (both sides) and the mirror tiles.
 #[derive(Clone, Debug)]
@@ -185,6 +191,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         );
         if let Some(s) = &spec {
             e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
+            e.absorbed += take_tile_loss(&s.index, &mut next_tiles, set, &grid);
             e.next += tile_power(&s.index, &next_tiles, set, &grid);
             e.escaped += spec_escaped;
         }

@@ -3,8 +3,8 @@
 
 use glam::{Vec3, Vec4};
 
+use super::MIN_COS;
 use super::cells::CellLists;
-use super::gather::MIN_COS;
 use super::interface::Interface;
 use super::tiles::ReflectJob;
 use super::transport::TransportDir;
@@ -65,7 +65,9 @@ pub fn reflect(
                     (None, _) => cr.from_above + sky * f32::from(u8::from(cr.last)),
                 };
                 let i = (slot * 2 + job.sense as usize) * (m * m) as usize + local as usize;
-                next[i] = (Vec4::from(next[i]) + (arriving * job.weight).extend(0.0)).into();
+                let c = arriving * job.weight;
+                // The fourth component counts what the lobe absorbed (energy bookkeeping).
+                next[i] = (Vec4::from(next[i]) + c.extend((c.x + c.y + c.z) * job.loss)).into();
             }
         }
     }

@@ -2,17 +2,21 @@
 //! ([`tile_index`]; the index itself is `lightfield::TileIndex`), the specular radiance a
 //! face sends from them, and the reflect jobs that receive into them.
 //!
-//! Receiving (the reflect step) is a gather: every destination cell of the three directions
-//! around the reflected direction maps through the face plane back into the current PSF and
-//! reads the radiance arriving there. No float atomics.
+//! Receiving (the reflect step) is a gather: every destination cell of a job's direction (the
+//! three directions around the reflected one for a mirror, the lobe's for a glossy face) maps
+//! through the face plane back into the current PSF and reads the radiance arriving there. No
+//! float atomics.
 
 use glam::{Vec2, Vec3, Vec4};
 
 use super::cells::ray_hit;
+use super::lobe;
 use super::transport::TransportDir;
 use crate::bake::BakeScene;
+use crate::bake::glossy::SpecularModel;
 use crate::directions::DirectionSet;
 use crate::lightfield::{FACE_DIFFUSE, TileIndex, tiles::words_per_slot};
+use crate::pathtrace::material::GgxAlbedo;
 use crate::psf::{PsfFrame, PsfGrid, cell_at, fixed_frame, fixed_frames};
 
 /// Allocates the tiles every non-diffuse face's projection touches in every fixed direction.
@@ -133,7 +137,8 @@ pub fn specular_outgoing(
 
 /// One destination of the reflect step: incoming light of transport direction `dir` (sense
 /// `incoming_sense`: 0 = travelling +w, 1 = −w) on non-diffuse face `face` goes, reflected, to
-/// fixed direction `j`, sense `sense`, with weight `weight` (ρ_s × barycentric × ΔΩ_t / W_v).
+/// fixed direction `j`, sense `sense`, with weight `weight` (mirror: ρ_s × barycentric ×
+/// ΔΩ_t / W_v; glossy: ρ_s × the lobe's weight, `lobe`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReflectJob {
     pub face: u32,
@@ -142,12 +147,21 @@ pub struct ReflectJob {
     pub sense: u32,
     /// Multiplies the arriving radiance (or the sun's irradiance).
     pub weight: Vec3,
+    /// What the lobe absorbs per unit it reflects here, `(1 − A)/A` with A its directional
+    /// albedo for the incoming direction (0 for a perfect mirror): the reflect step adds
+    /// `loss × Σ rgb` of what it writes to the destination's fourth component, which the
+    /// energy bookkeeping counts as absorbed (`energy::take_tile_loss`).
+    pub loss: f32,
 }
 
 /// Reflect jobs of every transport direction (outer index = direction, including suns last).
-/// The weight of destination vertex v of face f is normalised by
+///
+/// Mirrors ([`SpecularModel::Mirror`]): every incoming direction splats to the three vertices
+/// around its reflection; the weight of destination vertex v of face f is normalised by
 /// W(f, v) = Σ_t w_v(reflect(t))·ΔΩ_t over all quadrature directions and senses, so a uniform
-/// incoming radiance L reflects to exactly ρ·L in every direction.
+/// incoming radiance L reflects to exactly ρ·L in every direction (a lobe narrower than the
+/// direction spacing, α > 0, is further scaled by its directional albedo). Glossy faces
+/// ([`SpecularModel::Tiles`]): the lobe's weights ([`lobe::face_lobe`]).
 pub fn reflect_jobs(
     scene: &BakeScene,
     set: &DirectionSet,
@@ -156,10 +170,41 @@ pub fn reflect_jobs(
 ) -> Vec<Vec<ReflectJob>> {
     let l = set.len() as u32;
     let mut out = vec![Vec::new(); dirs.len()];
+    let mut albedos: Vec<GgxAlbedo> = Vec::new();
+    let mut adjacency = None;
     for &face in &index.faces {
         let f = &scene.faces[face as usize];
         let n = f.normal();
         let rho = Vec4::from(scene.specular[face as usize]).truncate();
+        let model = scene.lobes[face as usize];
+        let alpha = model.alpha();
+        if alpha > 0.0 && !albedos.iter().any(|a| a.alpha == alpha) {
+            albedos.push(GgxAlbedo::new(alpha));
+        }
+        let albedo = albedos.iter().find(|a| alpha > 0.0 && a.alpha == alpha);
+        if let (SpecularModel::Tiles { .. }, Some(albedo)) = (model, albedo) {
+            let adjacency = adjacency.get_or_insert_with(|| lobe::Adjacency::new(set));
+            let (columns, norm) = lobe::face_lobe(set, adjacency, dirs, n, albedo);
+            if norm.row_error > 1e-3 {
+                log::warn!(
+                    "glossy face {face}: lobe normalisation left rows {:.2e} off after {} iterations",
+                    norm.row_error,
+                    norm.iterations
+                );
+            }
+            for c in columns {
+                let loss = (1.0 - c.albedo) / c.albedo;
+                out[c.dir].extend(c.targets.iter().map(|&(v, w)| ReflectJob {
+                    face,
+                    incoming_sense: c.sense,
+                    j: v % l,
+                    sense: v / l,
+                    weight: rho * w,
+                    loss,
+                }));
+            }
+            continue;
+        }
         // Splat every incoming direction (both senses) to its 3 reflected vertices.
         let mut norm = vec![0f64; 2 * l as usize];
         let mut splats: Vec<(usize, u32, [u32; 3], [f32; 3])> = Vec::new();
@@ -181,6 +226,14 @@ pub fn reflect_jobs(
         }
         for (di, sense, verts, weights) in splats {
             let d = &dirs[di];
+            // A lobe narrower than the spacing keeps its directional albedo.
+            let (keep, loss) = match albedo {
+                Some(a) => {
+                    let a = a.at(n.dot(d.frame.w).abs());
+                    (a, (1.0 - a) / a)
+                }
+                None => (1.0, 0.0),
+            };
             for k in 0..3 {
                 let v = verts[k] as usize;
                 if weights[k] <= 0.0 || norm[v] <= 0.0 {
@@ -188,12 +241,17 @@ pub fn reflect_jobs(
                 }
                 // Quadrature directions carry radiance × ΔΩ; a sun carries irradiance.
                 let omega = if d.sun.is_some() { 1.0 } else { d.weight };
+                let mut weight = rho * (weights[k] * omega / norm[v] as f32);
+                if albedo.is_some() {
+                    weight *= keep;
+                }
                 out[di].push(ReflectJob {
                     face,
                     incoming_sense: sense,
                     j: verts[k] % l,
                     sense: verts[k] / l,
-                    weight: rho * (weights[k] * omega / norm[v] as f32),
+                    weight,
+                    loss,
                 });
             }
         }

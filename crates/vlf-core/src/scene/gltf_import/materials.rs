@@ -1,5 +1,5 @@
-//! Materials and textures: metallic-roughness materials mapped to the baker's kinds (diffuse,
-//! mirror, mixed), emission, and PNG/JPEG textures with their samplers.
+//! Materials and textures: metallic-roughness materials mapped to their lobes (diffuse, metal,
+//! mixed), emission, and PNG/JPEG textures with their samplers.
 
 use std::path::Path;
 
@@ -56,29 +56,9 @@ impl Importer<'_> {
             .map_or(1.0, |s| s.emissive_strength.0);
         let strength = self.clamp_factor(&el, "emissiveStrength", strength, 0.0, f32::MAX);
 
-        let kind = if metallic <= 0.01 {
-            MaterialKind::Diffuse
-        } else {
-            let sharp = if metallic >= 0.99 {
-                MaterialKind::Mirror
-            } else {
-                MaterialKind::Mixed { specular: metallic }
-            };
-            if roughness <= 0.05 {
-                sharp
-            } else if roughness <= 0.3 {
-                self.warn(format!(
-                    "{el}: glossy metal (metallic {metallic}, roughness {roughness}) is not supported yet; treated as {} (roughness 0)",
-                    if metallic >= 0.99 { "a mirror" } else { "mixed diffuse + mirror" }
-                ));
-                sharp
-            } else {
-                self.warn(format!(
-                    "{el}: rough metal (metallic {metallic}, roughness {roughness}) is not supported yet; treated as diffuse with albedo = base colour"
-                ));
-                MaterialKind::Diffuse
-            }
-        };
+        // The metal lobe's roughness is kept as read: how the baker models a rough metal
+        // (mirror, directional tiles, or diffuse) depends on its direction set (`bake::glossy`).
+        let kind = MaterialKind::from_metallic(metallic);
 
         if let Checked::Valid(mode) = m.alpha_mode
             && mode != json::material::AlphaMode::Opaque
@@ -304,7 +284,7 @@ impl Importer<'_> {
         }
         // glTF default material: base colour 1, metallic 1, roughness 1.
         self.warn(
-            "some primitives have no material: using the glTF default material (white, metallic 1, roughness 1 → diffuse albedo 1)"
+            "some primitives have no material: using the glTF default material (white, metallic 1, roughness 1: a rough white metal)"
                 .to_string(),
         );
         let i = self.materials.len() as u32;
@@ -315,7 +295,7 @@ impl Importer<'_> {
             emission: Vec3::ZERO,
             emissive_texture: None,
             double_sided: false,
-            kind: MaterialKind::Diffuse,
+            kind: MaterialKind::Mirror,
             metallic: 1.0,
             roughness: 1.0,
         });
