@@ -119,6 +119,8 @@ pub struct BakeReport {
     pub params: BakeParams,
     pub directions: usize,
     pub prepared: bake::prep::PrepSummary,
+    /// How each material's metal lobe is baked (mirror, directional tiles, diffuse; issue 16).
+    pub materials: Vec<bake::glossy::MaterialModel>,
     pub iterations: u32,
     pub phases_s: Vec<(String, f64)>,
     pub total_s: f64,
@@ -293,6 +295,7 @@ pub fn bake_scene(
         params: params.clone(),
         directions: set.len(),
         prepared: prep.summary(),
+        materials: bake::glossy::report(&scene.materials, &set),
         iterations,
         phases_s: phases,
         total_s,

@@ -144,6 +144,17 @@ fn bake_json_includes_the_memory_plan() {
     assert!(plan["k_max"].as_u64().unwrap() >= 1);
     assert!(plan["items"].as_array().unwrap().len() > 5);
     assert_eq!(plan["over_budget"].as_array().unwrap().len(), 0);
+    // How each material's metal lobe is baked (issue 16).
+    let models: Vec<_> = r["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["model"].as_str().unwrap())
+        .collect();
+    assert!(
+        models.contains(&"mirror") && models.contains(&"none"),
+        "{models:?}"
+    );
     let _ = fs::remove_dir_all(&d);
 }
 
