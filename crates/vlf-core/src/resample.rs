@@ -13,17 +13,24 @@
 //! the gathered one when the final gather ran — and a mixed face's own tiles), or the sky.
 //! Light that mirrors sent to diffuse faces (caustics) was already propagated and is not touched:
 //! only the stored tiles, which the renderer and the final gather read, change.
+//!
+//! Glossy faces (`bake::glossy`, [`SpecularModel::Tiles`]) keep their propagated tiles: their
+//! light is spread over the lobe, which one true reflected ray does not sample; a path that
+//! meets one reads its tiles there. A lobe the bake models as a mirror (narrower than the
+//! direction spacing) reflects its directional albedo.
 
 use glam::{Vec3, Vec4};
 use serde::Serialize;
 
 use crate::bake::BakeScene;
+use crate::bake::glossy::SpecularModel;
 use crate::bake::reference::tile_power;
 use crate::directions::DirectionSet;
 use crate::gather::field::{Field, Tiles};
 use crate::lightfield::tiles::words_per_slot;
 use crate::lightfield::{FACE_DIFFUSE, FACE_MIRROR, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
+use crate::pathtrace::material::GgxAlbedo;
 use crate::pathtrace::{PreparedScene, Ray};
 use crate::psf::{PsfGrid, fixed_frame};
 use crate::scene::Scene;
@@ -45,6 +52,46 @@ pub struct ResampleStats {
     /// Power of the tiles before and after (Σ L × cell area × ΔΩ, summed over channels).
     pub power_before: f64,
     pub power_after: f64,
+}
+
+/// How the bake modelled each face's metal lobe (`prep.lobes`), with the directional albedo of
+/// the rough ones it keeps as mirrors.
+struct Lobes<'a> {
+    models: &'a [SpecularModel],
+    albedos: Vec<GgxAlbedo>,
+}
+
+impl Lobes<'_> {
+    fn new(models: &[SpecularModel]) -> Lobes<'_> {
+        let mut albedos: Vec<GgxAlbedo> = Vec::new();
+        for m in models {
+            if let SpecularModel::Mirror { alpha } = *m
+                && alpha > 0.0
+                && !albedos.iter().any(|a| a.alpha == alpha)
+            {
+                albedos.push(GgxAlbedo::new(alpha));
+            }
+        }
+        Lobes { models, albedos }
+    }
+
+    /// Whether `face` keeps its propagated tiles (a glossy lobe).
+    fn glossy(&self, face: u32) -> bool {
+        matches!(self.models[face as usize], SpecularModel::Tiles { .. })
+    }
+
+    /// What `face`, modelled as a mirror, reflects at `|cos θ|` = `cos` per unit reflectance
+    /// (1 for a perfect mirror).
+    fn mirror_albedo(&self, face: u32, cos: f32) -> f32 {
+        match self.models[face as usize] {
+            SpecularModel::Mirror { alpha } if alpha > 0.0 => self
+                .albedos
+                .iter()
+                .find(|a| a.alpha == alpha)
+                .map_or(1.0, |a| a.at(cos.abs())),
+            _ => 1.0,
+        }
+    }
 }
 
 /// Per-value outcome of a traced path.
@@ -71,6 +118,7 @@ pub fn resample_tiles(
     threads: usize,
 ) -> (Vec<[f32; 4]>, ResampleStats) {
     let ps = PreparedScene::new(scene);
+    let lobes = Lobes::new(&prep.lobes);
     let field = Field::new(
         scene,
         atlas,
@@ -104,7 +152,7 @@ pub fn resample_tiles(
         let mut out = vec![Traced::default(); 2 * m2];
         for local in 0..m2 {
             let covered = (index.coverage[slot * words + local / 32] >> (local % 32)) & 1 == 1;
-            if !covered || ndw.abs() < crate::bake::reference::MIN_COS {
+            if !covered || ndw.abs() < crate::bake::reference::MIN_COS || lobes.glossy(face) {
                 for sense in 0..2 {
                     out[sense * m2 + local].value = values[(slot * 2 + sense) * m2 + local];
                 }
@@ -117,9 +165,18 @@ pub fn resample_tiles(
             let p = o + frame.w * ((f.offset - normal.dot(o)) / ndw);
             for sense in 0..2 {
                 let leaving = if sense == 0 { frame.w } else { -frame.w };
-                let t = trace(&ps, &field, scene.to_vlf.inverse(p), normal, leaving, sky);
+                let t = trace(
+                    &ps,
+                    &field,
+                    &lobes,
+                    scene.to_vlf.inverse(p),
+                    normal,
+                    leaving,
+                    sky,
+                );
+                let albedo = lobes.mirror_albedo(face, ndw);
                 out[sense * m2 + local] = Traced {
-                    value: (reflectance * t.0).extend(0.0).into(),
+                    value: (reflectance * albedo * t.0).extend(0.0).into(),
                     cut: t.1 == Ending::Cut,
                     escaped: t.1 == Ending::Sky,
                 };
@@ -162,6 +219,7 @@ enum Ending {
 fn trace(
     ps: &PreparedScene,
     field: &Field,
+    lobes: &Lobes,
     p: Vec3,
     normal: Vec3,
     leaving: Vec3,
@@ -185,15 +243,18 @@ fn trace(
         let s = field.surface(ps, dir, &hit);
         let f = &field.atlas.faces[s.face as usize];
         match f.kind {
-            FACE_MIRROR if depth + 1 < MAX_DEPTH => {
-                throughput *= Vec4::from(field.atlas.specular[s.face as usize]).truncate();
+            FACE_MIRROR if depth + 1 < MAX_DEPTH && !lobes.glossy(s.face) => {
                 let n = f.normal();
+                throughput *= Vec4::from(field.atlas.specular[s.face as usize]).truncate()
+                    * lobes.mirror_albedo(s.face, n.dot(dir));
                 side = if n.dot(-dir) > 0.0 { n } else { -n };
                 dir = (dir - 2.0 * dir.dot(n) * n).normalize();
                 origin = offset_ray_origin(s.world, side);
                 depth += 1;
             }
-            FACE_MIRROR => return (throughput * field.specular(&s, dir), Ending::Cut),
+            FACE_MIRROR if !lobes.glossy(s.face) => {
+                return (throughput * field.specular(&s, dir), Ending::Cut);
+            }
             FACE_DIFFUSE => {
                 return (
                     throughput * (field.emission(&s) + field.diffuse(&s)),

@@ -206,3 +206,88 @@ fn parallel_mirrors_sum_the_geometric_series_up_to_the_depth_bound() {
     }
     assert!(seen.len() >= 3, "series terms seen: {seen:?}");
 }
+
+/// Glossy faces (issue 16): a lobe in directional tiles keeps its propagated values (one true
+/// reflected ray does not sample a lobe); a rough lobe the bake models as a mirror reflects its
+/// directional albedo × reflectance × the sky.
+#[test]
+fn glossy_tiles_are_kept_and_rough_mirrors_reflect_their_albedo() {
+    use vlf_core::bake::glossy::SpecularModel;
+    use vlf_core::pathtrace::material::GgxAlbedo;
+    let sky = Vec3::new(2.0, 1.0, 0.5);
+    for (alpha, model) in [
+        (0.25f32, SpecularModel::Tiles { alpha: 0.25 }),
+        (0.04, SpecularModel::Mirror { alpha: 0.04 }),
+    ] {
+        let mut b = SceneBuilder::new();
+        let m = b.material(Material {
+            name: "rough metal".into(),
+            base_color: Vec3::ONE,
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            double_sided: true,
+            kind: MaterialKind::Mirror,
+            metallic: 1.0,
+            roughness: alpha.sqrt(),
+        });
+        hquad(&mut b, 0.0, 1.0, true, m);
+        let scene = b.build("glossy plane");
+        let params = BakeParams {
+            directions: 46,
+            resolution: 32,
+            tile: 8,
+            iterations: Iterations::Fixed(1),
+            sky,
+            ..BakeParams::paper()
+        };
+        let mut prep = BakeScene::new(&scene, &params).unwrap();
+        prep.lobes[0] = model;
+        let set = DirectionSet::at_least(params.directions).unwrap();
+        let out = reference::propagate(&prep, &set, &params);
+        let (index, values) = out.tiles.unwrap();
+        let (new, _) = resample_tiles(
+            &scene,
+            &prep,
+            &prep,
+            &out.irradiance,
+            &index,
+            &values,
+            &set,
+            sky,
+            0,
+        );
+        if let SpecularModel::Tiles { .. } = model {
+            assert!(new == values, "α {alpha}: glossy tiles changed");
+            continue;
+        }
+        let albedo = GgxAlbedo::new(alpha);
+        let (m, l) = (index.m, set.len());
+        let m2 = (m * m) as usize;
+        let words = words_per_slot(m);
+        let mut checked = 0;
+        for (k, w) in index.index_start.windows(2).enumerate() {
+            let cos = prep.faces[0].normal().dot(fixed_frame(&set, k % l).w).abs();
+            if cos < 0.05 {
+                continue;
+            }
+            for slot in w[0] as usize..w[1] as usize {
+                for local in 0..m2 {
+                    if (index.coverage[slot * words + local / 32] >> (local % 32)) & 1 == 0 {
+                        continue;
+                    }
+                    for sense in 0..2 {
+                        let v = Vec4::from(new[(slot * 2 + sense) * m2 + local]).truncate();
+                        let want = sky * albedo.at(cos);
+                        assert!(
+                            (v - want).abs().max_element() <= 1e-5 * want.max_element(),
+                            "α {alpha}, cos {cos}: {v} against {want}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 100, "{checked}");
+    }
+}
