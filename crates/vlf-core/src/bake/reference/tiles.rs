@@ -9,6 +9,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::MIN_COS;
 use super::cells::ray_hit;
 use super::lobe;
 use super::transport::TransportDir;
@@ -160,7 +161,8 @@ pub struct ReflectJob {
 /// around its reflection; the weight of destination vertex v of face f is normalised by
 /// W(f, v) = Σ_t w_v(reflect(t))·ΔΩ_t over all quadrature directions and senses, so a uniform
 /// incoming radiance L reflects to exactly ρ·L in every direction (a lobe narrower than the
-/// direction spacing, α > 0, is further scaled by its directional albedo). Glossy faces
+/// direction spacing, α > 0, is further scaled by its directional albedo); a sun's three
+/// destinations are normalised to conserve its reflected power instead. Glossy faces
 /// ([`SpecularModel::Tiles`]): the lobe's weights ([`lobe::face_lobe`]).
 pub fn reflect_jobs(
     scene: &BakeScene,
@@ -226,22 +228,42 @@ pub fn reflect_jobs(
         }
         for (di, sense, verts, weights) in splats {
             let d = &dirs[di];
+            let cos_t = n.dot(d.frame.w).abs();
             // A lobe narrower than the spacing keeps its directional albedo.
             let (keep, loss) = match albedo {
                 Some(a) => {
-                    let a = a.at(n.dot(d.frame.w).abs());
+                    let a = a.at(cos_t);
                     (a, (1.0 - a) / a)
                 }
                 None => (1.0, 0.0),
             };
+            // A sun is a single direction outside the quadrature: its three destinations are
+            // normalised to conserve its power (Σ_k L_k·ΔΩ_k·cos_k = ρ·E·cos_t) rather than by
+            // W(f, v), which makes uniform radiance reflect exactly and leaves a sun's
+            // reflection off by the spread of W around ΔΩ.
+            let sun_norm = d.sun.is_some().then(|| {
+                (0..3)
+                    .map(|k| {
+                        let cos_v = n.dot(set.sphere_vertex(verts[k])).abs();
+                        if weights[k] > 0.0 && cos_v >= MIN_COS {
+                            weights[k] * set.solid_angle(verts[k]) * cos_v
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum::<f32>()
+            });
             for k in 0..3 {
                 let v = verts[k] as usize;
-                if weights[k] <= 0.0 || norm[v] <= 0.0 {
-                    continue;
-                }
-                // Quadrature directions carry radiance × ΔΩ; a sun carries irradiance.
-                let omega = if d.sun.is_some() { 1.0 } else { d.weight };
-                let mut weight = rho * (weights[k] * omega / norm[v] as f32);
+                let weight = match sun_norm {
+                    Some(s) if s > 0.0 && weights[k] > 0.0 => weights[k] * cos_t / s,
+                    None if weights[k] > 0.0 && norm[v] > 0.0 => {
+                        // Quadrature directions carry radiance × ΔΩ.
+                        weights[k] * d.weight / norm[v] as f32
+                    }
+                    _ => continue,
+                };
+                let mut weight = rho * weight;
                 if albedo.is_some() {
                     weight *= keep;
                 }
