@@ -340,3 +340,26 @@ fn rules_choose_the_model_by_lobe_width() {
     assert!(report[3].lobe_width > report[3].spacing);
     assert!(report[2].lobe_width < report[2].spacing);
 }
+
+/// A rough metal folded into the diffuse part renders with the albedo it was baked with: the
+/// light field's shading materials carry the bake's diffuse weight (the material's own is 0
+/// for a full metal, which rendered it black per pixel).
+#[test]
+fn folded_metal_renders_with_its_baked_albedo() {
+    let alpha = 0.81; // roughness 0.9: wider than any direction spacing
+    let scene = plane(alpha);
+    let params = BakeParams {
+        final_gather: None,
+        ..params(126, Vec3::ONE, Iterations::Fixed(2))
+    };
+    let prep = BakeScene::new(&scene, &params).unwrap();
+    assert!(matches!(prep.lobes[0], SpecularModel::Diffuse { .. }));
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();
+    let w = lf.shading.materials[0].diffuse_weight;
+    assert_eq!(w, prep.materials[0].diffuse_weight);
+    let want = GgxAlbedo::new(alpha).hemispherical();
+    assert!(
+        (w - want).abs() < 1e-6 && w > 0.3,
+        "diffuse weight {w}, want {want}"
+    );
+}

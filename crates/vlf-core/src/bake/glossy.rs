@@ -105,6 +105,9 @@ pub struct BakedMaterial {
     /// Lambertian albedo: the Lambert lobe's, plus the metal lobe's × its hemispherical
     /// albedo when it is folded into the diffuse part.
     pub diffuse: Vec3,
+    /// The same as a weight of `baseColorFactor` (`diffuse` = base colour × this): what the
+    /// renderer multiplies the base-colour texture with per pixel.
+    pub diffuse_weight: f32,
     /// Reflectance of the metal lobe where it keeps directional tiles (zero otherwise).
     pub specular: Vec3,
 }
@@ -116,19 +119,20 @@ pub fn baked_materials(materials: &[Material], spacing: Option<f32>) -> Vec<Bake
         .iter()
         .map(|m| {
             let model = model(m, spacing);
-            let (diffuse, specular) = match model {
+            let (diffuse_weight, specular) = match model {
                 SpecularModel::Diffuse { alpha } => {
                     let fold = m.specular_weight() * GgxAlbedo::new(alpha).hemispherical();
-                    (m.base_color * (m.diffuse_weight() + fold), Vec3::ZERO)
+                    (m.diffuse_weight() + fold, Vec3::ZERO)
                 }
-                SpecularModel::None => (m.diffuse_albedo(), Vec3::ZERO),
+                SpecularModel::None => (m.diffuse_weight(), Vec3::ZERO),
                 SpecularModel::Mirror { .. } | SpecularModel::Tiles { .. } => {
-                    (m.diffuse_albedo(), m.specular_reflectance())
+                    (m.diffuse_weight(), m.specular_reflectance())
                 }
             };
             BakedMaterial {
                 model,
-                diffuse,
+                diffuse: m.base_color * diffuse_weight,
+                diffuse_weight,
                 specular,
             }
         })

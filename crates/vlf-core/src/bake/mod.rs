@@ -93,6 +93,12 @@ fn assemble_impl(
         }),
         None => None,
     };
+    // The renderer's diffuse weight is the bake's: a rough metal folded into the diffuse part
+    // renders with the albedo it was baked with.
+    let mut shading = Shading::from_scene(scene);
+    for (sm, b) in shading.materials.iter_mut().zip(&prep.materials) {
+        sm.diffuse_weight = b.diffuse_weight;
+    }
     Ok(LightField {
         params: params.clone(),
         directions,
@@ -102,7 +108,7 @@ fn assemble_impl(
         triangles: prep.triangles.clone(),
         faces: prep.faces.clone(),
         irradiance,
-        shading: Shading::from_scene(scene),
+        shading,
         tiles,
         stats,
     })
