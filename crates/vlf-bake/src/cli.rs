@@ -259,6 +259,30 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Export a light-field file as a glTF binary with lightmaps for other engines: the scene's
+    /// triangles with their lightmap coordinates in TEXCOORD_1, the diffuse atlas as irradiance
+    /// packed into one or a few lightmap textures, materials carrying MOZ_lightmap (see
+    /// docs/ENGINES.md). Mirror and glossy light is not exported.
+    Export {
+        /// The light-field file.
+        file: PathBuf,
+        /// Output glTF binary (.glb, written atomically).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Lightmap encoding: exr (linear half float, with an RGBM PNG fallback), png-rgbm,
+        /// ktx2 (not implemented: refused).
+        #[arg(long, value_enum, default_value_t = TextureArg::Exr)]
+        texture: TextureArg,
+        /// Largest lightmap texture edge in texels; more charts go to further textures.
+        #[arg(long, value_name = "N", default_value_t = vlf_core::export::DEFAULT_MAX_SIZE)]
+        max_size: u32,
+        /// The scene the light field was baked from (default: the source path the file records).
+        #[arg(long, value_name = "SCENE.gltf")]
+        scene: Option<PathBuf>,
+        /// Print a JSON summary on stdout.
+        #[arg(long)]
+        json: bool,
+    },
     /// Load a glTF scene and report what the baker sees: counts, materials, emitters, cameras,
     /// suns, planar faces, the VLF transform and every warning.
     Inspect {
@@ -275,6 +299,14 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// `vlf-bake export --texture`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TextureArg {
+    Exr,
+    PngRgbm,
+    Ktx2,
 }
 
 /// `WxH` image size.

@@ -4,6 +4,7 @@
 pub mod bake;
 pub mod batch;
 pub mod cli;
+pub mod export;
 pub mod memory;
 pub mod reference;
 pub mod sweep;
@@ -42,6 +43,7 @@ pub fn exit_code(err: &anyhow::Error) -> ExitCode {
             || cause.is::<vlf_core::lightfield::ParamsError>()
             || cause.is::<vlf_core::image::ImageError>()
             || cause.is::<vlf_core::pathtrace::PathTraceError>()
+            || cause.is::<vlf_core::export::ExportError>()
         {
             return ExitCode::BadInput;
         }
@@ -115,6 +117,14 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             diff,
         } => compare(&test, &reference, json, diff.as_deref()),
+        Command::Export {
+            file,
+            output,
+            texture,
+            max_size,
+            scene,
+            json,
+        } => export::export_command(&file, &output, texture, max_size, scene.as_deref(), json),
         Command::Inspect { scene, json } => inspect(&scene, json),
         Command::Selftest { json } => selftest(cli.device, json),
     }

@@ -6,6 +6,7 @@
 pub mod atomic_file;
 pub mod bake;
 pub mod directions;
+pub mod export;
 pub mod format;
 pub mod gather;
 pub mod hash;
