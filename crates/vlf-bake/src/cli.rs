@@ -229,7 +229,8 @@ pub enum Command {
         #[command(flatten)]
         params: BakeArgs,
     },
-    /// Compare a rendered image with a reference (both linear EXR of equal size): MSE,
+    /// Compare a rendered image with a reference (both linear EXR of equal size, or both 8-bit
+    /// sRGB PNG, compared as the linear values a display shows): MSE,
     /// relMSE = mean((t−r)²/(r²+0.01)) over pixels and channels, and mean HDR-FLIP.
     Compare {
         /// The image under test.

@@ -132,8 +132,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 
 fn compare(test: &Path, reference: &Path, json: bool, diff: Option<&Path>) -> anyhow::Result<()> {
     use vlf_core::image;
-    let t = image::read_exr(test)?;
-    let r = image::read_exr(reference)?;
+    let t = image::read_any(test)?;
+    let r = image::read_any(reference)?;
     let (report, flip) = image::compare_images(&t, &r, test, reference)?;
     if let Some(path) = diff {
         image::error_map_png(path, &flip.map, t.width, t.height)?;

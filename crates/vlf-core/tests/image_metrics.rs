@@ -268,6 +268,33 @@ fn png_writes_srgb_bytes() {
     );
 }
 
+/// `read_png` gives the linear values a display shows: the written sRGB codes decoded.
+#[test]
+fn png_reads_back_as_displayed_linear_values() {
+    let img = Image {
+        width: 3,
+        height: 1,
+        pixels: vec![[0.0, 0.25, 1.0], [2.0, 0.5, 0.0031308], [0.04, 0.6, 0.9]],
+    };
+    let path = tmp_dir("png_read").join("still.png");
+    write_png(&path, &img, 0.0, Tonemap::Clamp).unwrap();
+    let back = image::read_png(&path).unwrap();
+    assert_eq!((back.width, back.height), (3, 1));
+    for (p, q) in img.pixels.iter().zip(&back.pixels) {
+        for c in 0..3 {
+            let want = p[c].clamp(0.0, 1.0);
+            // One 8-bit sRGB step at most (near black the steps are 1/3295 in linear).
+            let step = (image::srgb_to_linear(image::linear_to_srgb(want) + 1.0 / 255.0) - want)
+                .max(1.0 / 3295.0);
+            assert!((q[c] - want).abs() <= step, "{p:?} → {q:?}");
+        }
+    }
+    assert_eq!(back.pixels[0][2], 1.0);
+    // read_any picks the decoder by extension; a PNG is not an EXR.
+    assert_eq!(image::read_any(&path).unwrap(), back);
+    assert!(matches!(read_exr(&path), Err(ImageError::Exr { .. })));
+}
+
 #[test]
 fn error_map_png_uses_magma() {
     let dir = tmp_dir("error_map");

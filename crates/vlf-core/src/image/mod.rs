@@ -82,6 +82,15 @@ pub enum ImageError {
         path: PathBuf,
     },
 
+    /// The file is not a readable 8-bit RGB or RGBA PNG image.
+    #[error("not a readable 8-bit RGB(A) PNG image ({reason}): {path}")]
+    Png {
+        /// What the decoder reported.
+        reason: String,
+        /// Image file.
+        path: PathBuf,
+    },
+
     /// The PNG encoder failed.
     #[error("cannot encode PNG image ({reason}): {path}")]
     PngEncode {
@@ -382,6 +391,61 @@ pub fn write_exr(path: impl AsRef<Path>, image: &Image) -> Result<(), ImageError
             },
         })
     })
+}
+
+/// Reads an 8-bit sRGB PNG (RGB or RGBA; alpha ignored) as linear values in [0, 1]: what a
+/// display shows, for comparing displayed images (`vlf-bake compare` on PNG stills).
+pub fn read_png(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    let bad = |reason: String| ImageError::Png {
+        reason,
+        path: path.to_path_buf(),
+    };
+    let bytes = std::fs::read(path).map_err(|source| ImageError::Io {
+        action: "read",
+        cause: source,
+        path: path.to_path_buf(),
+    })?;
+    let mut reader = png::Decoder::new(Cursor::new(bytes))
+        .read_info()
+        .map_err(|e| bad(e.to_string()))?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| bad("too large".into()))?;
+    let mut buf = vec![0u8; size];
+    let info = reader
+        .next_frame(&mut buf)
+        .map_err(|e| bad(e.to_string()))?;
+    let channels = match (info.color_type, info.bit_depth) {
+        (png::ColorType::Rgb, png::BitDepth::Eight) => 3,
+        (png::ColorType::Rgba, png::BitDepth::Eight) => 4,
+        (c, d) => return Err(bad(format!("{c:?} at {d:?} bits"))),
+    };
+    let lut: Vec<f32> = (0..=255u8)
+        .map(|v| srgb_to_linear(f32::from(v) / 255.0))
+        .collect();
+    let pixels = buf[..info.buffer_size()]
+        .chunks_exact(channels)
+        .map(|p| [lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]])
+        .collect();
+    Ok(Image {
+        width: info.width,
+        height: info.height,
+        pixels,
+    })
+}
+
+/// Reads an image for comparison: `.png` with [`read_png`], anything else with [`read_exr`].
+pub fn read_any(path: impl AsRef<Path>) -> Result<Image, ImageError> {
+    let path = path.as_ref();
+    let is_png = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        read_png(path)
+    } else {
+        read_exr(path)
+    }
 }
 
 /// Linear → sRGB transfer function (IEC 61966-2-1), input clamped to [0, 1]; NaN → 0.
