@@ -4,7 +4,9 @@
 #
 #   Vulkan loader + Mesa's software Vulkan driver (lavapipe), so GPU code runs without a GPU;
 #   Xvfb + xauth + x11-apps + imagemagick, so the viewer's window can be tested headless;
-#   Node.js + npm, for Khronos's glTF validator (asset checks);
+#   Node.js + npm, for Khronos's glTF validator (asset checks) and three.js (web/);
+#   chromium, for the browser check of the glTF export (`cargo xtask browser`, headless,
+#   software WebGL);
 #   a Rust toolchain (rustup) if cargo is missing.
 set -eu
 
@@ -16,6 +18,7 @@ for p in mesa-vulkan-drivers libvulkan1 vulkan-tools xvfb xauth x11-apps imagema
     have_pkg "$p" || need="$need $p"
 done
 command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1 || need="$need nodejs npm"
+command -v chromium >/dev/null 2>&1 || need="$need chromium"
 
 if [ -n "$need" ]; then
     if ! command -v apt-get >/dev/null 2>&1; then

@@ -74,6 +74,10 @@ pub fn ci(root: &Path) -> Result<()> {
     let (passed, failed, ignored) = test_step(root)?;
     crate::assets::check(root)?;
     crate::validate::validate_gltf(root, &crate::assets::asset_files(&root.join("assets")))?;
+    let t_browser = Instant::now();
+    eprintln!("==> browser (glTF export in headless chromium)");
+    crate::browser::browser(root)?;
+    eprintln!("<== browser: {:.1} s", t_browser.elapsed().as_secs_f64());
     eprintln!("ci: all steps passed in {:.0} s", t.elapsed().as_secs_f64());
     // One closing line for the whole suite (cargo prints one per test binary).
     println!("ci: {passed} passed, {failed} failed, {ignored} skipped");

@@ -2,6 +2,7 @@
 //!
 
 mod assets;
+mod browser;
 mod chart;
 mod ci;
 mod lengths;
@@ -15,8 +16,10 @@ use anyhow::{Result, bail};
 const USAGE: &str = "usage: cargo xtask <task>
 
 tasks:
-  ci            the whole test suite: rustfmt, module layers, clippy, all tests, asset checks
-                (what .ci/run runs)
+  ci            the whole test suite: rustfmt, module layers, clippy, all tests, asset checks,
+                the browser check (what .ci/run runs)
+  browser       the glTF export (vlf-bake export) validated and rendered in headless chromium,
+                compared with vlf-view's still (needs node/npm and chromium)
   demo          the main job on the bundled Cornell box
   bench [--quick]  bake benchmarks (release build) → docs/bench/bake.csv
   chart [--quick] [--redraw] [SCENE...]  speed against accuracy on the shared scenes: references,
@@ -63,6 +66,7 @@ fn main() -> Result<()> {
             println!("{n} source files, none over {} lines", lengths::MAX_LINES);
         }
         Some("ci") => ci::ci(&root)?,
+        Some("browser") => browser::browser(&root)?,
         Some("demo") => ci::demo(&root)?,
         Some("bench") => ci::bench(&root, std::env::args().any(|a| a == "--quick"))?,
         Some("chart") => chart::chart(&root, &std::env::args().skip(2).collect::<Vec<_>>())?,
