@@ -3,7 +3,7 @@
 //!
 //! The scene's triangles (world space, both sides of every face as separate one-sided
 //! triangles, the back side wound the other way) carry their chart position in `TEXCOORD_1`;
-//! the diffuse atlas, as **irradiance E** per texel ([`lightmap_irradiance`]), is packed into
+//! the diffuse atlas, as **irradiance E** per texel (what the light field stores), is packed into
 //! one or a few lightmap pages ([`pack`]: a clamp-to-edge gutter, so bilinear filtering never
 //! mixes charts). Materials keep their base colour (and texture, re-encoded as PNG), emission
 //! (front side only), metallic weight, and carry the lightmap as `MOZ_lightmap`
@@ -28,7 +28,7 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 use serde_json::{Value, json};
 
-use crate::bake::{BakeScene, dilate_where};
+use crate::bake::BakeScene;
 use crate::lightfield::LightField;
 use crate::scene::{FilterMode, MaterialKind, Scene, Texture, WrapMode};
 
@@ -139,37 +139,16 @@ pub struct ExportSummary {
     pub bytes: usize,
 }
 
-/// The lightmap value of one atlas texel: the irradiance E arriving at it, from the stored
-/// total outgoing radiance L, the texel's diffuse albedo ρ and emission Lₑ:
-/// `E = (L − Lₑ)·π/ρ` per channel (exact for ρ > 0, since the bake stores `L = Lₑ + ρE/π`),
-/// 0 where ρ = 0 (no diffuse reflection: nothing shows the lightmap there).
-/// This is the one place to change when the file stores irradiance itself.
-pub fn lightmap_irradiance(radiance: [f32; 3], albedo: [f32; 4], emission: [f32; 4]) -> [f32; 3] {
-    [0, 1, 2].map(|c| {
-        if albedo[c] > 0.0 {
-            ((radiance[c] - emission[c]) * std::f32::consts::PI / albedo[c]).max(0.0)
-        } else {
-            0.0
-        }
-    })
-}
-
-/// The atlas of `lf` as irradiance (covered texels by [`lightmap_irradiance`], the others
-/// dilated from them as the bake dilates radiance).
-fn atlas_irradiance(lf: &LightField, prep: &BakeScene) -> Vec<[f32; 4]> {
-    let mut e: Vec<[f32; 4]> = (0..prep.texel_count())
+/// The atlas of `lf` as lightmap values: the irradiance E the light field stores per texel
+/// (uncovered texels already dilated from their neighbours by the bake), emission excluded
+/// (the exported materials carry it, as the renderer applies it per pixel).
+fn atlas_irradiance(lf: &LightField) -> Vec<[f32; 4]> {
+    (0..lf.irradiance.len())
         .map(|k| {
-            if prep.texel_area[k] > 0.0 {
-                let v = lightmap_irradiance(lf.radiance.get(k), prep.albedo[k], prep.emission[k]);
-                [v[0], v[1], v[2], 0.0]
-            } else {
-                [0.0; 4]
-            }
+            let v = lf.irradiance.get(k);
+            [v[0], v[1], v[2], 0.0]
         })
-        .collect();
-    let filled: Vec<bool> = prep.texel_area.iter().map(|a| *a > 0.0).collect();
-    dilate_where(prep, &mut e, &filled);
-    e
+        .collect()
 }
 
 /// Checks that `scene` is the scene `lf` was baked from and prepares its atlas (albedo and
@@ -195,11 +174,11 @@ fn prepare(lf: &LightField, scene: &Scene) -> Result<BakeScene, ExportError> {
             return mismatch(format!("face {i}'s chart differs"));
         }
     }
-    if prep.texel_count() != lf.radiance.len() {
+    if prep.texel_count() != lf.irradiance.len() {
         return mismatch(format!(
             "{} atlas texels, the light field has {}",
             prep.texel_count(),
-            lf.radiance.len()
+            lf.irradiance.len()
         ));
     }
     Ok(prep)
@@ -217,8 +196,8 @@ pub fn export_glb(
     if !(16..=16384).contains(&options.max_size) {
         return Err(ExportError::MaxSize(options.max_size));
     }
-    let prep = prepare(lf, scene)?;
-    let irradiance = atlas_irradiance(lf, &prep);
+    prepare(lf, scene)?;
+    let irradiance = atlas_irradiance(lf);
     let layout = pack::pack(&lf.faces, options.max_size, GUTTER).map_err(|e| {
         ExportError::ChartTooLarge {
             face: e.face,
