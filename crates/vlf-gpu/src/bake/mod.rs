@@ -67,14 +67,8 @@ pub enum GpuBakeError {
     Readback,
 }
 
-/// Progress of a GPU propagation, for the binary's progress bar.
-#[derive(Clone, Copy, Debug)]
-pub struct Progress {
-    pub iteration: u32,
-    pub max_iterations: u32,
-    pub directions_done: usize,
-    pub directions: usize,
-}
+/// Progress of a propagation (shared with the CPU propagator), for the binary's progress bar.
+pub use vlf_core::bake::reference::Progress;
 
 /// Settings of the GPU propagator that do not change its result (the tests check that).
 #[derive(Clone, Copy, Debug, Default)]

@@ -45,9 +45,7 @@ pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
 pub use interface::{Interface, interface};
 pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe};
 pub use reflect::{nearest_crossing, reflect};
-pub use tiles::{
-    ReflectJob, Specular, SpecularSetup, SpecularStep, reflect_jobs, specular_outgoing, tile_index,
-};
+pub use tiles::{ReflectJob, Specular, SpecularSetup, reflect_jobs, specular_outgoing, tile_index};
 pub use transport::{SplitMix64, TransportDir, all_directions, transport_directions};
 
 use glam::{Vec3, Vec4};
@@ -75,8 +73,22 @@ pub struct Propagated {
     pub energy: EnergyStats,
 }
 
-/// Gathers one direction into the accumulators (steps 1–4) and, with non-diffuse faces, runs
-/// the reflect step into `next_tiles`. Returns the specular power escaping in this direction.
+/// What one transport direction contributes to an iteration (steps 1–4 and the reflect step),
+/// computed on its own so that directions run in parallel; [`DirectionGather::add_to`] then
+/// adds it to the iteration's sums, in direction order, with the same float operations in the
+/// same order as a sequential loop: the sums do not depend on the thread count.
+#[derive(Clone, Debug, Default)]
+pub struct DirectionGather {
+    /// (side-0 texel, its sample) for every texel that has a valid sample, in texel order.
+    samples: Vec<(u32, TexelSample)>,
+    /// (tile value index, radiance) the reflect step adds to the next tiles, in order.
+    tiles: Vec<(u32, Vec4)>,
+    /// Specular power escaping in this direction.
+    pub escaped: f64,
+}
+
+/// Steps 1–4 for one direction and, with non-diffuse faces (`spec`: the sender state and this
+/// direction's reflect jobs), the reflect step.
 #[allow(clippy::too_many_arguments)]
 pub fn gather_direction(
     scene: &BakeScene,
@@ -84,17 +96,18 @@ pub fn gather_direction(
     dir: &TransportDir,
     unshot: &[[f32; 4]],
     tex_face: &[u32],
-    acc: &mut [TexelAccum],
-    spec: Option<SpecularStep>,
+    spec: Option<(&Specular, &[ReflectJob])>,
     sky: Vec3,
-) -> f64 {
+) -> DirectionGather {
     let lists = build_cell_lists(scene, grid, &dir.frame);
-    let (iface, escaped) = interface(scene, grid, dir, &lists, unshot, spec.as_ref().map(|s| s.0));
-    if let Some((sp, jobs, next_tiles)) = spec {
+    let (iface, escaped) = interface(scene, grid, dir, &lists, unshot, spec.map(|s| s.0));
+    let mut tiles = Vec::new();
+    if let Some((sp, jobs)) = spec {
         reflect(
-            scene, grid, dir, &lists, &iface, sp.index, sp.frames, jobs, sky, next_tiles,
+            scene, grid, dir, &lists, &iface, sp.index, sp.frames, jobs, sky, &mut tiles,
         );
     }
+    let mut samples = Vec::new();
     for (t, &face) in tex_face.iter().enumerate() {
         let f = &scene.faces[face as usize];
         let local = t as u32 - f.texel_base;
@@ -104,32 +117,85 @@ pub fn gather_direction(
         let texel = (local % f.width, local / f.width);
         let point = Vec4::from(scene.texel_center[t]).truncate();
         let s = sample_texel(scene, grid, &dir.frame, &lists, &iface, face, texel, point);
-        if !s.valid {
-            continue;
+        if s.valid {
+            samples.push((t as u32, s));
         }
-        let back = t + f.texels_per_side() as usize;
-        for (side, tx) in [(0usize, t), (1, back)] {
-            let a = &mut acc[tx];
-            match dir.sun {
-                // A sun's light travels +w only: it reaches the side facing −w, through the
-                // first crossing of its ray (`open` is then the "first" fraction).
-                Some(e_sun) if side == s.upstream_side => {
-                    a.open += (e_sun * s.cos * s.open[side]).extend(0.0)
-                }
-                Some(_) => {}
-                None => {
-                    let wgt = dir.weight * s.cos;
-                    a.irradiance += (s.arriving[side] * wgt).extend(wgt);
-                    a.open.w += s.open[side] * wgt;
+    }
+    DirectionGather {
+        samples,
+        tiles,
+        escaped,
+    }
+}
+
+impl DirectionGather {
+    /// Adds this direction's samples into the accumulators and its reflected radiance into
+    /// `next_tiles`.
+    pub fn add_to(
+        &self,
+        scene: &BakeScene,
+        dir: &TransportDir,
+        tex_face: &[u32],
+        acc: &mut [TexelAccum],
+        next_tiles: &mut [[f32; 4]],
+    ) {
+        for &(i, v) in &self.tiles {
+            let i = i as usize;
+            next_tiles[i] = (Vec4::from(next_tiles[i]) + v).into();
+        }
+        for &(t, s) in &self.samples {
+            let t = t as usize;
+            let back = t + scene.faces[tex_face[t] as usize].texels_per_side() as usize;
+            for (side, tx) in [(0usize, t), (1, back)] {
+                let a = &mut acc[tx];
+                match dir.sun {
+                    // A sun's light travels +w only: it reaches the side facing −w, through the
+                    // first crossing of its ray (`open` is then the "first" fraction).
+                    Some(e_sun) if side == s.upstream_side => {
+                        a.open += (e_sun * s.cos * s.open[side]).extend(0.0)
+                    }
+                    Some(_) => {}
+                    None => {
+                        let wgt = dir.weight * s.cos;
+                        a.irradiance += (s.arriving[side] * wgt).extend(wgt);
+                        a.open.w += s.open[side] * wgt;
+                    }
                 }
             }
         }
     }
-    escaped
 }
 
-/// Runs the whole propagation on the CPU.
+/// Progress of a propagation (CPU or GPU), for a binary's progress bar.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub iteration: u32,
+    pub max_iterations: u32,
+    pub directions_done: usize,
+    pub directions: usize,
+}
+
+/// Directions gathered ahead of the one being added, per worker thread: enough to keep every
+/// worker busy while one direction takes longer, few enough to bound their memory.
+const DIRECTIONS_AHEAD_PER_THREAD: usize = 2;
+
+/// Runs the whole propagation on the CPU, on every core.
 pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> Propagated {
+    propagate_with(scene, set, params, 0, &mut |_| {})
+}
+
+/// Runs the whole propagation on the CPU on `threads` workers (0 = all cores), reporting
+/// progress after every direction. The directions of an iteration are gathered in parallel
+/// and added to the sums in direction order ([`DirectionGather`]), so the result is
+/// bit-identical whatever the thread count, and the order of additions is the GPU
+/// propagator's (one direction after the other).
+pub fn propagate_with(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    threads: usize,
+    progress: &mut dyn FnMut(Progress),
+) -> Propagated {
     let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
     let (dirs, quadrature) = all_directions(scene, set, params);
     let spec = SpecularSetup::new(scene, set, &grid, &dirs);
@@ -147,6 +213,7 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         ..Default::default()
     };
     let (max_iter, threshold) = stopping(params.iterations);
+    let window = DIRECTIONS_AHEAD_PER_THREAD * crate::par::threads(threads);
     let mut iterations = 0;
     for it in 0..max_iter {
         let first = it == 0;
@@ -154,32 +221,36 @@ pub fn propagate(scene: &BakeScene, set: &DirectionSet, params: &BakeParams) -> 
         let mut acc = vec![TexelAccum::default(); n_tex];
         next_tiles.fill([0.0; 4]);
         let mut spec_escaped = 0f64;
-        for (di, dir) in dirs.iter().enumerate() {
-            if di >= quadrature && !first {
-                break; // suns shine in the first iteration only
-            }
-            let sp = spec.as_ref().map(|s| {
-                (
-                    Specular {
-                        index: &s.index,
-                        set,
-                        frames: &s.frames,
-                        unshot: &unshot_tiles,
-                    },
-                    s.jobs[di].as_slice(),
-                )
-            });
-            spec_escaped += gather_direction(
-                scene,
-                &grid,
-                dir,
-                &unshot,
-                &tex_face,
-                &mut acc,
-                sp.as_ref().map(|(s, j)| (s, *j, next_tiles.as_mut_slice())),
-                sky,
-            );
-        }
+        // Suns shine in the first iteration only.
+        let active = if first { dirs.len() } else { quadrature };
+        let sender = spec.as_ref().map(|s| Specular {
+            index: &s.index,
+            set,
+            frames: &s.frames,
+            unshot: &unshot_tiles,
+        });
+        crate::par::ordered(
+            active,
+            threads,
+            window,
+            |di| {
+                let sp = sender
+                    .as_ref()
+                    .zip(spec.as_ref())
+                    .map(|(sender, s)| (sender, s.jobs[di].as_slice()));
+                gather_direction(scene, &grid, &dirs[di], &unshot, &tex_face, sp, sky)
+            },
+            |di, g| {
+                g.add_to(scene, &dirs[di], &tex_face, &mut acc, &mut next_tiles);
+                spec_escaped += g.escaped;
+                progress(Progress {
+                    iteration: it,
+                    max_iterations: max_iter,
+                    directions_done: di + 1,
+                    directions: active,
+                });
+            },
+        );
         let mut e = finish_iteration(
             scene,
             &tex_face,

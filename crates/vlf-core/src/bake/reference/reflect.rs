@@ -14,7 +14,9 @@ use crate::psf::{PsfFrame, PsfGrid};
 
 /// The reflect step (receiving on non-diffuse faces) for one transport direction: every
 /// destination cell of every job maps through the face plane into this direction's PSF and
-/// gathers the radiance arriving there (`sky` enters through open ends).
+/// gathers the radiance arriving there (`sky` enters through open ends). The radiance for
+/// tile value `i` is pushed as `(i, radiance)` onto `next`, in order, for the propagation to
+/// add in direction order (directions are gathered in parallel).
 #[allow(clippy::too_many_arguments)]
 pub fn reflect(
     scene: &BakeScene,
@@ -26,7 +28,7 @@ pub fn reflect(
     frames: &[PsfFrame],
     jobs: &[ReflectJob],
     sky: Vec3,
-    next: &mut [[f32; 4]],
+    next: &mut Vec<(u32, Vec4)>,
 ) {
     let n = grid.n;
     let m = index.m;
@@ -67,7 +69,7 @@ pub fn reflect(
                 let i = (slot * 2 + job.sense as usize) * (m * m) as usize + local as usize;
                 let c = arriving * job.weight;
                 // The fourth component counts what the lobe absorbed (energy bookkeeping).
-                next[i] = (Vec4::from(next[i]) + c.extend((c.x + c.y + c.z) * job.loss)).into();
+                next.push((i as u32, c.extend((c.x + c.y + c.z) * job.loss)));
             }
         }
     }

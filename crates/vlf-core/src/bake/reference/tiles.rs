@@ -290,10 +290,6 @@ pub struct Specular<'a> {
     pub unshot: &'a [[f32; 4]],
 }
 
-/// What one direction's gather needs for non-diffuse faces: the sender state, this direction's
-/// reflect jobs, and the next-iteration tiles they write.
-pub type SpecularStep<'a, 'b> = (&'a Specular<'a>, &'b [ReflectJob], &'b mut [[f32; 4]]);
-
 /// Non-diffuse state shared by the CPU and GPU propagators.
 pub struct SpecularSetup {
     pub index: TileIndex,
