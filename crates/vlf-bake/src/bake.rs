@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use serde::Serialize;
+use vlf_core::bake::reference::Progress;
 use vlf_core::bake::{self, Quality};
 use vlf_core::lightfield::{BakeParams, BakeStats, Iterations};
 
@@ -114,8 +115,13 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
 pub struct BakeReport {
     pub scene: String,
     pub output: String,
+    /// `gpu` or `cpu`.
     pub device: String,
+    /// Why `--device` chose it.
+    pub device_reason: String,
     pub adapter: String,
+    /// Worker threads of the CPU work (propagation on the CPU path, final gather).
+    pub threads: usize,
     pub params: BakeParams,
     pub directions: usize,
     pub prepared: bake::prep::PrepSummary,
@@ -172,7 +178,7 @@ pub struct MemoryReport {
 }
 
 /// Bakes one scene with an already opened device and writes the file atomically. `progress`
-/// receives (done, total) units of propagation work when the GPU reports it. The memory of the
+/// receives (done, total) units of propagation work and what is running. The memory of the
 /// bake is planned against `budget` first: `--resolution` may be lowered (with a warning, and
 /// the report's `params` say so) or the bake refused ([`memory::MemoryError`]).
 pub fn bake_scene(
@@ -211,14 +217,17 @@ pub fn bake_scene(
     }
 
     let t = Instant::now();
-    let (out, device_name, adapter) = match compute {
-        Compute::Gpu(ctx) => {
+    let threads = vlf_core::par::threads(args.threads);
+    // Directions done out of the most the bake may run (the stopping rule usually ends it
+    // earlier).
+    let mut report = |p: Progress| {
+        let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
+        let total = u64::from(p.max_iterations) * p.directions as u64;
+        progress(done, total, &format!("iteration {}", p.iteration + 1));
+    };
+    let (out, adapter) = match compute {
+        Compute::Gpu(ctx, _) => {
             let out = memory::guard_gpu(ctx, &plan, || {
-                let mut report = |p: vlf_gpu::bake::Progress| {
-                    let done = p.iteration as u64 * p.directions as u64 + p.directions_done as u64;
-                    let total = u64::from(p.max_iterations) * p.directions as u64;
-                    progress(done, total, &format!("iteration {}", p.iteration + 1));
-                };
                 // The memory plan holds the propagator's buffer plan: the propagator allocates
                 // exactly what the budget counted, without binning every direction again.
                 match &plan.gpu {
@@ -234,15 +243,15 @@ pub fn bake_scene(
                 }
                 .context("GPU propagation")
             })?;
-            (out, "gpu", ctx.summary.to_string())
+            (out, ctx.summary.to_string())
         }
         Compute::Cpu(_) => (
-            bake::reference::propagate(&prep, &set, params),
-            "cpu",
+            bake::reference::propagate_with(&prep, &set, params, threads, &mut report),
             "CPU reference".to_string(),
         ),
     };
     let t_prop = t.elapsed().as_secs_f64();
+    let device_name = compute.kind();
 
     // Timings stay out of the file: the same scene, parameters and adapter must give a
     // bit-identical file. They go to the report (--json) instead.
@@ -256,10 +265,14 @@ pub fn bake_scene(
     let t = Instant::now();
     let iterations = out.iterations;
     let energy = out.energy.clone();
+    if params.final_gather.is_some() {
+        progress(1, 1, "final gather");
+    }
     // The final gather (when asked for), then the light field. A non-finite radiance is a bug
     // or a degenerate input: refuse it rather than write it.
-    let finished = vlf_core::pipeline::finish(&scene, &prep, params, set.clone(), out, stats, 0)
-        .with_context(|| format!("finishing the light field of {}", scene_path.display()))?;
+    let finished =
+        vlf_core::pipeline::finish(&scene, &prep, params, set.clone(), out, stats, threads)
+            .with_context(|| format!("finishing the light field of {}", scene_path.display()))?;
     let t_gather = t.elapsed().as_secs_f64();
     let lf = finished.light_field;
     let t = Instant::now();
@@ -291,7 +304,9 @@ pub fn bake_scene(
         scene: scene_path.display().to_string(),
         output: output.display().to_string(),
         device: device_name.into(),
+        device_reason: compute.why().to_string(),
         adapter,
+        threads,
         params: params.clone(),
         directions: set.len(),
         prepared: prep.summary(),
@@ -345,15 +360,12 @@ pub fn bake_command(
     let compute = open_device(device)?;
     let t_device = t.elapsed().as_secs_f64();
     let budget = Budget::new(args.max_memory, &compute, 1);
-    if let (Compute::Cpu(why), false) = (&compute, quiet) {
-        eprintln!(
-            "warning: baking on the CPU reference path ({why}): single-threaded, much slower than a hardware GPU"
-        );
-    }
-    let bar = match &compute {
-        Compute::Gpu(ctx) if !quiet && !json => Some(progress_bar(&ctx.summary.to_string())),
-        _ => None,
-    };
+    let bar = (!quiet && !json).then(|| {
+        progress_bar(&match &compute {
+            Compute::Gpu(ctx, _) => ctx.summary.name.clone(),
+            Compute::Cpu(_) => cpu_label(vlf_core::par::threads(args.threads)),
+        })
+    });
     let mut report = bake_scene(
         scene_path,
         output,
@@ -377,12 +389,16 @@ pub fn bake_command(
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else if !quiet {
         println!(
-            "baked {} → {} ({:.1} MB) in {:.2} s on {}: {} directions, {}² rays, {} iterations, unshot {:.2}% of the emitted power, energy imbalance {:+.3}%",
+            "baked {} → {} ({:.1} MB) in {:.2} s on {} ({}): {} directions, {}² rays, {} iterations, unshot {:.2}% of the emitted power, energy imbalance {:+.3}%",
             report.scene,
             report.output,
             report.output_bytes as f64 / 1e6,
             report.total_s,
-            report.adapter,
+            match report.device.as_str() {
+                "cpu" => cpu_label(report.threads),
+                _ => report.adapter.clone(),
+            },
+            report.device_reason,
             report.directions,
             report.params.resolution,
             report.iterations,
@@ -393,6 +409,14 @@ pub fn bake_command(
     Ok(())
 }
 
+/// "the CPU (N threads)", as the summary line and the progress bar name the CPU path.
+pub fn cpu_label(threads: usize) -> String {
+    format!(
+        "the CPU ({threads} thread{})",
+        if threads == 1 { "" } else { "s" }
+    )
+}
+
 fn progress_bar(adapter: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(1);
     bar.set_style(
@@ -400,6 +424,6 @@ fn progress_bar(adapter: &str) -> indicatif::ProgressBar {
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_prefix(format!("propagating on {adapter}"));
+    bar.set_prefix(format!("baking on {adapter}"));
     bar
 }

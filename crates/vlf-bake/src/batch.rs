@@ -29,11 +29,11 @@ use vlf_core::lightfield::BakeParams;
 mod scan;
 
 use scan::up_to_date;
-pub use scan::{discover, remove_stale_temps};
+pub use scan::{discover, remove_stale_temps, shard};
 
 use crate::ExitCode;
 use crate::bake::{BakeReport, bake_scene, params_from_args, resolve_params};
-use crate::cli::{BakeArgs, DeviceArg};
+use crate::cli::{BakeArgs, DeviceArg, Shard};
 use crate::memory::{Budget, MemoryError, human};
 use crate::{Compute, open_device};
 
@@ -45,6 +45,8 @@ pub struct BatchOptions {
     /// `--json REPORT`.
     pub report: Option<PathBuf>,
     pub force: bool,
+    /// `--shard I/N`: bake only this shard of the scenes.
+    pub shard: Option<Shard>,
     pub args: BakeArgs,
     pub device: DeviceArg,
     pub quiet: bool,
@@ -176,10 +178,17 @@ struct Report<'a> {
     input_dir: String,
     output_dir: String,
     device: &'static str,
+    /// Why `--device` chose it.
+    device_reason: String,
     adapter: String,
     jobs: u32,
     jobs_requested: u32,
+    /// Worker threads of each bake's CPU work.
+    threads: usize,
     force: bool,
+    /// `--shard I/N`, and how many scenes DIR holds in all (`totals.scenes` are the shard's).
+    shard: Option<String>,
+    scenes_in_dir: usize,
     /// Requested parameters (a scene's own may have a lower resolution, see its `params`).
     params: &'a BakeParams,
     budget: &'a Budget,
@@ -212,7 +221,18 @@ static CTRL_C: AtomicUsize = AtomicUsize::new(0);
 pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
     let t_batch = Instant::now();
     let params = params_from_args(&opts.args)?;
-    let scenes = discover(&opts.dir)?;
+    let all = discover(&opts.dir)?;
+    let in_dir = all.len();
+    let scenes = shard(all, opts.shard);
+    if let Some(sh) = opts.shard
+        && !opts.quiet
+    {
+        eprintln!(
+            "shard {sh}: {} of the {in_dir} scenes under {}",
+            scenes.len(),
+            opts.dir.display()
+        );
+    }
     fs::create_dir_all(&opts.output).map_err(|e| {
         BatchError::Input(format!(
             "cannot create the output directory {}: {e}",
@@ -221,11 +241,11 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
     })?;
     let compute = open_device(opts.device)?;
     let (device, adapter) = match &compute {
-        Compute::Gpu(ctx) => ("gpu", ctx.summary.to_string()),
-        Compute::Cpu(why) => ("cpu", format!("CPU reference ({why})")),
+        Compute::Gpu(ctx, _) => ("gpu", ctx.summary.to_string()),
+        Compute::Cpu(_) => ("cpu", "CPU reference".to_string()),
     };
     let jobs = match &compute {
-        Compute::Gpu(_) => {
+        Compute::Gpu(..) => {
             if opts.jobs > 1 && !opts.quiet {
                 eprintln!(
                     "note: --jobs {} ignored: with a GPU the scenes are baked one at a time on the shared device",
@@ -234,15 +254,24 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
             }
             1
         }
-        Compute::Cpu(why) => {
-            if !opts.quiet {
-                eprintln!(
-                    "warning: baking on the CPU reference path ({why}): single-threaded per scene, much slower than a hardware GPU"
-                );
-            }
-            opts.jobs.min(scenes.len().max(1) as u32)
-        }
+        Compute::Cpu(_) => opts.jobs.min(scenes.len().max(1) as u32),
     };
+    // Every bake uses all cores unless --threads says otherwise: J jobs share them.
+    let mut args = opts.args.clone();
+    if args.threads == 0 {
+        args.threads = (vlf_core::par::threads(0) / jobs as usize).max(1);
+    }
+    if !opts.quiet {
+        eprintln!(
+            "baking on {} ({}), {jobs} job(s) of {} thread(s)",
+            match &compute {
+                Compute::Gpu(ctx, _) => ctx.summary.name.clone(),
+                Compute::Cpu(_) => "the CPU".into(),
+            },
+            compute.why(),
+            args.threads
+        );
+    }
     let budget = Budget::new(opts.args.max_memory, &compute, jobs);
     let exe_time = std::env::current_exe()
         .and_then(fs::metadata)
@@ -349,8 +378,11 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
         params: &params,
         budget: &budget,
         device,
+        device_reason: compute.why().to_string(),
         adapter: adapter.clone(),
         jobs,
+        threads: args.threads,
+        scenes_in_dir: in_dir,
         started: t_batch,
     };
     ctx.write(&records, false, false);
@@ -389,7 +421,7 @@ pub fn batch_command(opts: &BatchOptions) -> anyhow::Result<()> {
             stop.clone(),
             tx.clone(),
         );
-        let (args, budget) = (opts.args.clone(), budget.clone());
+        let (args, budget) = (args.clone(), budget.clone());
         std::thread::Builder::new()
             .name(format!("bake-{k}"))
             .stack_size(16 << 20)
@@ -596,8 +628,11 @@ struct ReportCtx<'a> {
     params: &'a BakeParams,
     budget: &'a Budget,
     device: &'static str,
+    device_reason: String,
     adapter: String,
     jobs: u32,
+    threads: usize,
+    scenes_in_dir: usize,
     started: Instant,
 }
 
@@ -612,10 +647,14 @@ impl ReportCtx<'_> {
             input_dir: self.opts.dir.display().to_string(),
             output_dir: self.opts.output.display().to_string(),
             device: self.device,
+            device_reason: self.device_reason.clone(),
             adapter: self.adapter.clone(),
             jobs: self.jobs,
             jobs_requested: self.opts.jobs,
+            threads: self.threads,
             force: self.opts.force,
+            shard: self.opts.shard.map(|s| s.to_string()),
+            scenes_in_dir: self.scenes_in_dir,
             params: self.params,
             budget: self.budget,
             finished,

@@ -10,8 +10,8 @@ use std::path::PathBuf;
     version,
     about = "Bake global illumination of a glTF 2.0 scene into a virtual light field",
     long_about = "Bake global illumination of a glTF 2.0 scene into a virtual light field.\n\n\
-                  Light is propagated on the GPU (wgpu compute) along a hemisphere of directions, \
-                  each a grid of parallel rays.\n\n\
+                  Light is propagated along a hemisphere of directions, each a grid of parallel \
+                  rays, on a hardware GPU (wgpu compute) or on every CPU core.\n\n\
                   Exit codes: 0 success, 1 internal error, 2 usage error, 3 bad input file, \
                   4 no usable GPU device (or the device was lost), 5 batch: some scenes failed \
                   (the others were baked; see the report), 6 the bake does not fit the memory \
@@ -24,8 +24,9 @@ pub struct Cli {
     /// Only errors.
     #[arg(short, long, global = true)]
     pub quiet: bool,
-    /// Where to run: `auto` (GPU if an adapter exists, else the CPU reference path with a
-    /// warning), `gpu` (fail without an adapter), `cpu` (the CPU reference path).
+    /// Where to run: `auto` (a hardware GPU adapter when there is one; the CPU path, on every
+    /// core, when the only adapter is a software rasterizer such as lavapipe, or none), `gpu`
+    /// (any adapter, software included; fail without one), `cpu` (the CPU path).
     #[arg(long, global = true, value_enum, default_value_t = DeviceArg::Auto)]
     pub device: DeviceArg,
     #[command(subcommand)]
@@ -157,6 +158,11 @@ pub struct BakeArgs {
     /// 3/4 of the RAM (on a hardware GPU, --max-memory bounds the GPU buffers).
     #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
     pub max_memory: Option<u64>,
+    /// Worker threads of the CPU work: the propagation on the CPU path and the final gather
+    /// (0 = every core; `batch` divides the cores between its --jobs). The file is
+    /// bit-identical whatever the number.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub threads: usize,
 }
 
 #[derive(Subcommand, Debug)]
@@ -207,10 +213,11 @@ pub enum Command {
         /// Output directory (created if missing).
         #[arg(short, long = "output", value_name = "OUTDIR")]
         output: PathBuf,
-        /// Scenes baked at the same time on the CPU path (each bake is single-threaded; the
-        /// memory budget is shared between jobs). With a GPU every scene runs on the one shared
-        /// device, one at a time: --jobs is then ignored (one bake already fills the GPU, and
-        /// two would need twice its memory).
+        /// Scenes baked at the same time on the CPU path (the cores are divided between them
+        /// unless --threads is given, and so is the memory budget; one job on all cores is
+        /// usually fastest). With a GPU every scene runs on the one shared device, one at a
+        /// time: --jobs is then ignored (one bake already fills the GPU, and two would need
+        /// twice its memory).
         #[arg(short, long, value_name = "J", default_value_t = 1,
               value_parser = clap::value_parser!(u32).range(1..=256))]
         jobs: u32,
@@ -226,6 +233,13 @@ pub enum Command {
         /// white sky of radiance 1 (the batch default for --sky-if-unlit).
         #[arg(long)]
         no_default_sky: bool,
+        /// Bake only shard I of N (1 ≤ I ≤ N): the scenes at positions I, I + N, I + 2N, … of
+        /// the sorted list. The N shards partition DIR and every machine that sees the same
+        /// DIR computes the same shards, so N independent jobs (a Slurm array, GNU parallel,
+        /// a Kubernetes indexed Job) bake the whole folder between them with no coordination:
+        /// `--shard $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT` with `--array=1-N`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<Shard>,
         #[command(flatten)]
         params: BakeArgs,
     },
@@ -308,6 +322,34 @@ pub enum TextureArg {
     Exr,
     PngRgbm,
     Ktx2,
+}
+
+/// `I/N`: shard I (1-based) of N (`vlf-bake batch --shard`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// 1..=count.
+    pub index: u32,
+    pub count: u32,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("expected I/N with 1 ≤ I ≤ N (e.g. 2/4), got `{s}`");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: u32 = i.trim().parse().map_err(|_| bad())?;
+        let count: u32 = n.trim().parse().map_err(|_| bad())?;
+        if index == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
 }
 
 /// `WxH` image size.
@@ -480,5 +522,10 @@ mod tests {
         );
         assert!("1,2".parse::<Point>().is_err());
         assert!("1,nan,2".parse::<Point>().is_err());
+        assert_eq!("2/4".parse::<Shard>(), Ok(Shard { index: 2, count: 4 }));
+        assert_eq!(" 1 / 1".parse::<Shard>(), Ok(Shard { index: 1, count: 1 }));
+        for bad in ["0/4", "5/4", "1/0", "2", "a/b", "-1/3"] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
     }
 }

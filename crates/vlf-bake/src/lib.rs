@@ -92,6 +92,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             force,
             no_default_sky,
+            shard,
             mut params,
         } => batch::batch_command(&batch::BatchOptions {
             dir,
@@ -99,6 +100,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             jobs,
             report: json,
             force,
+            shard,
             args: {
                 if !no_default_sky && params.sky_if_unlit.is_none() {
                     params.sky_if_unlit = Some(cli::Rgb([1.0; 3]));
@@ -180,37 +182,83 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Result of opening the compute device as `--device` asks.
+/// The compute device `--device` chose, with the reason (for `--json` and the summary line).
 pub enum Compute {
-    Gpu(Box<vlf_gpu::GpuContext>),
-    /// The CPU reference path, with the reason it was chosen.
+    Gpu(Box<vlf_gpu::GpuContext>, String),
+    /// The CPU path (all cores, `--threads`).
     Cpu(String),
 }
 
-/// Opens the compute device: `gpu` must get an adapter, `auto` falls back to the CPU reference
-/// with a warning, `cpu` never touches the GPU.
+impl Compute {
+    /// `"gpu"` or `"cpu"`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Compute::Gpu(..) => "gpu",
+            Compute::Cpu(_) => "cpu",
+        }
+    }
+
+    /// Why this device was used.
+    pub fn why(&self) -> &str {
+        match self {
+            Compute::Gpu(_, why) | Compute::Cpu(why) => why,
+        }
+    }
+
+    /// The GPU context, if the GPU is used.
+    pub fn gpu(&self) -> Option<&vlf_gpu::GpuContext> {
+        match self {
+            Compute::Gpu(ctx, _) => Some(ctx),
+            Compute::Cpu(_) => None,
+        }
+    }
+}
+
+/// Opens the compute device as `--device` asks: `gpu` must get an adapter (software ones
+/// included); `cpu` never touches the GPU; `auto` takes the faster path: a hardware adapter
+/// when there is one, the CPU path when the only adapter is a software rasterizer (lavapipe,
+/// llvmpipe, WARP, SwiftShader: the same cores run the native code faster) or when there is
+/// none. The one home of this rule for `bake`, `batch`, `sweep` and `reference`.
 pub fn open_device(arg: DeviceArg) -> anyhow::Result<Compute> {
     match arg {
         DeviceArg::Cpu => Ok(Compute::Cpu("--device cpu".into())),
-        DeviceArg::Gpu => Ok(Compute::Gpu(Box::new(
-            vlf_gpu::GpuContext::new(&Default::default()).context("--device gpu")?,
-        ))),
+        DeviceArg::Gpu => {
+            let ctx = vlf_gpu::GpuContext::new(&Default::default()).context("--device gpu")?;
+            Ok(Compute::Gpu(Box::new(ctx), "--device gpu".into()))
+        }
         DeviceArg::Auto => match vlf_gpu::GpuContext::new(&Default::default()) {
-            Ok(ctx) => Ok(Compute::Gpu(Box::new(ctx))),
-            Err(e) => {
-                log::warn!(
-                    "no usable GPU ({e}); using the CPU reference path, which is much slower"
+            Ok(ctx) if !ctx.summary.is_software() => {
+                let why = format!("hardware GPU adapter {}", ctx.summary.name);
+                Ok(Compute::Gpu(Box::new(ctx), why))
+            }
+            Ok(ctx) => {
+                let why = format!(
+                    "the only GPU adapter, {}, is a software rasterizer: the CPU path is faster on \
+                     the same cores (--device gpu forces the adapter)",
+                    ctx.summary.name
                 );
-                Ok(Compute::Cpu(e.to_string()))
+                log::info!("{why}");
+                Ok(Compute::Cpu(why))
+            }
+            Err(e) => {
+                log::info!("no usable GPU ({e}); using the CPU path");
+                Ok(Compute::Cpu(format!("no usable GPU adapter ({e})")))
             }
         },
     }
 }
 
+/// Probes the GPU adapter (any, software included, unless `--device cpu`) and says which
+/// device `--device auto` bakes on.
 fn selftest(device: DeviceArg, json: bool) -> anyhow::Result<()> {
-    let compute = open_device(device)?;
-    let Compute::Gpu(ctx) = compute else {
-        anyhow::bail!("selftest needs a GPU adapter; none was used (--device {device:?})");
+    if device == DeviceArg::Cpu {
+        anyhow::bail!("selftest probes the GPU adapter: it needs --device auto or gpu");
+    }
+    let ctx = vlf_gpu::GpuContext::new(&Default::default()).context("selftest")?;
+    let auto = if ctx.summary.is_software() {
+        "cpu (the adapter is a software rasterizer)"
+    } else {
+        "gpu"
     };
     let pass = vlf_gpu::passes::smoke::SmokePass::new(&ctx.device);
     let xs: Vec<f32> = (0..65_536).map(|i| i as f32 * 0.25).collect();
@@ -231,10 +279,12 @@ fn selftest(device: DeviceArg, json: bool) -> anyhow::Result<()> {
                 "adapter": ctx.summary.name, "backend": ctx.summary.backend,
                 "device_type": ctx.summary.device_type, "driver": ctx.summary.driver,
                 "selftest_elements": xs.len(), "selftest_mismatches": bad, "selftest_ms": ms,
+                "bake_device_auto": auto,
             })
         );
     } else {
         println!("adapter: {}", ctx.summary);
+        println!("bake --device auto uses: {auto}");
         println!(
             "compute self-test: {} elements, {bad} mismatches, {ms:.1} ms",
             xs.len()

@@ -404,7 +404,7 @@ pub fn plan_and_prepare(
     let set = DirectionSet::at_least(requested.directions).context("direction set")?;
     let (gpu, software) = match compute {
         Compute::Cpu(_) => (false, false),
-        Compute::Gpu(ctx) => (true, ctx.summary.is_software()),
+        Compute::Gpu(ctx, _) => (true, ctx.summary.is_software()),
     };
     let mut params = requested.clone();
     let mut prep_s = 0.0;

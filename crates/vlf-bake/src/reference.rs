@@ -4,9 +4,10 @@
 //!
 //! The CPU path tracer is `vlf_core::pathtrace`; the GPU one (`vlf_gpu::raytrace`) runs the same
 //! estimator with the same random streams, so both give the same image up to rounding.
-//! Device choice (`--device`): `cpu` → CPU; `gpu` → the GPU (fails without an adapter);
-//! `auto` → a hardware GPU when there is one, else the CPU tracer: on a software adapter
-//! (lavapipe) the GPU kernels run on the same CPU cores about 3× slower than the native tracer.
+//! Device choice (`--device`, [`crate::open_device`]): `cpu` → CPU; `gpu` → the GPU (fails
+//! without an adapter); `auto` → a hardware GPU when there is one, else the CPU tracer: on a
+//! software adapter (lavapipe) the GPU kernels run on the same CPU cores about 3× slower than
+//! the native tracer.
 
 use std::time::Instant;
 
@@ -17,6 +18,7 @@ use vlf_core::image::{Image, write_exr};
 use vlf_core::pathtrace::{self, PinholeCamera, PreparedScene, RenderSettings};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
 
+use crate::Compute;
 use crate::cli::{DeviceArg, KernelArg, Point, ReferenceArgs, Size};
 
 /// What `--json` prints.
@@ -51,37 +53,6 @@ fn progress_bar(prefix: &str, total: u64) -> indicatif::ProgressBar {
     );
     bar.set_prefix(prefix.to_string());
     bar
-}
-
-/// Which tracer to use under `--device`.
-enum Tracer {
-    Cpu(String),
-    Gpu(Box<vlf_gpu::GpuContext>),
-}
-
-fn choose(device: DeviceArg) -> anyhow::Result<Tracer> {
-    match device {
-        DeviceArg::Cpu => Ok(Tracer::Cpu("--device cpu".into())),
-        DeviceArg::Gpu => Ok(Tracer::Gpu(Box::new(
-            vlf_gpu::GpuContext::new(&Default::default()).context("--device gpu")?,
-        ))),
-        DeviceArg::Auto => match vlf_gpu::GpuContext::new(&Default::default()) {
-            Ok(ctx) if !ctx.summary.is_software() => Ok(Tracer::Gpu(Box::new(ctx))),
-            Ok(ctx) => {
-                let why = format!(
-                    "the only GPU adapter is a software rasterizer ({}); the native CPU tracer is faster \
-                     (--device gpu forces it)",
-                    ctx.summary
-                );
-                log::info!("reference: {why}");
-                Ok(Tracer::Cpu(why))
-            }
-            Err(e) => {
-                log::info!("reference: no usable GPU ({e}); using the CPU path tracer");
-                Ok(Tracer::Cpu(e.to_string()))
-            }
-        },
-    }
 }
 
 /// `vlf-bake reference`: renders `args.scene` and writes `args.output`.
@@ -123,13 +94,13 @@ pub fn reference_command(
             (camera, format!("camera {index}"))
         }
     };
-    let tracer = choose(device)?;
+    let tracer = crate::open_device(device)?;
     let prep = PreparedScene::new(&scene);
     let total = u64::from(width) * u64::from(height) * u64::from(args.spp);
     let show = !quiet && !args.json;
     let t_render = Instant::now();
     let (image, device_name, adapter, rays): (Image, &str, String, Option<u64>) = match &tracer {
-        Tracer::Cpu(why) => {
+        Compute::Cpu(why) => {
             if show {
                 eprintln!("path tracing on the CPU ({why})");
             }
@@ -144,7 +115,7 @@ pub fn reference_command(
             }
             (image, "cpu", "CPU path tracer".into(), None)
         }
-        Tracer::Gpu(ctx) => {
+        Compute::Gpu(ctx, _) => {
             let gpu = GpuPathTracer::new(&ctx.device);
             let options = GpuRenderOptions {
                 kernel: match args.gpu_kernel {

@@ -165,6 +165,8 @@ impl GridPoint {
             sky,
             sky_if_unlit: None,
             max_memory: None,
+            // Every core, as the path tracer and radiosity use.
+            threads: 0,
         }
     }
 }
@@ -348,7 +350,7 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
     // Renders need an adapter even when the bakes run on the CPU.
     let render_ctx;
     let ctx: &GpuContext = match &compute {
-        Compute::Gpu(c) => c,
+        Compute::Gpu(c, _) => c,
         Compute::Cpu(_) => {
             render_ctx = GpuContext::new(&Default::default())
                 .context("rendering the bakes needs a GPU adapter (lavapipe will do)")?;

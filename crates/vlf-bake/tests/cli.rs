@@ -313,11 +313,14 @@ fn batch_refuses_a_missing_or_empty_directory() {
     let _ = fs::remove_dir_all(&d);
 }
 
+/// The same bake on 1, 2 and 3 threads (and again on 2) gives byte-identical files: the
+/// mirror box exercises the reflect step, whose writes are added in direction order.
 #[test]
-fn the_same_bake_twice_is_byte_identical() {
+fn the_same_bake_is_byte_identical_whatever_the_thread_count() {
     let d = scratch("repro");
-    let (a, b) = (d.join("a.vlf"), d.join("b.vlf"));
-    for out in [&a, &b] {
+    let mut files = Vec::new();
+    for threads in ["1", "2", "3", "2"] {
+        let out = d.join(format!("t{threads}-{}.vlf", files.len()));
         let scene = mirror_scene();
         // Resolution 16: the mirror spans several tiles.
         let o = run(&[
@@ -325,23 +328,59 @@ fn the_same_bake_twice_is_byte_identical() {
             "-q",
             s(&scene),
             "-o",
-            s(out),
+            s(&out),
             "--device",
             "cpu",
             "--directions",
-            "6",
+            "46",
             "--resolution",
             "16",
             "--tile",
             "4",
             "--iterations",
             "2",
+            "--threads",
+            threads,
         ]);
         assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+        files.push(fs::read(&out).unwrap());
     }
-    let (x, y) = (fs::read(&a).unwrap(), fs::read(&b).unwrap());
-    assert!(x.len() > 1000);
-    assert!(x == y, "two bakes of the same scene differ");
+    assert!(files[0].len() > 1000);
+    for (k, f) in files.iter().enumerate().skip(1) {
+        assert!(*f == files[0], "bake {k} differs from the one-thread bake");
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
+/// `--device auto` bakes on a hardware adapter when there is one, else on the CPU path (the
+/// only adapter a software rasterizer, or none), and `--json` and the summary line say which
+/// and why.
+#[test]
+fn device_auto_takes_the_faster_path_and_says_why() {
+    let d = scratch("auto");
+    let out = d.join("box.vlf");
+    let (device, why) = match vlf_gpu::GpuContext::new(&Default::default()) {
+        Ok(ctx) if !ctx.summary.is_software() => ("gpu", "hardware GPU adapter"),
+        Ok(_) => ("cpu", "is a software rasterizer"),
+        Err(_) => ("cpu", "no usable GPU adapter"),
+    };
+    let scene = box_scene();
+    let mut args = vec!["bake", s(&scene), "-o", s(&out), "--threads", "2"];
+    args.extend(&TINY[2..]);
+    let o = run(&[args.as_slice(), &["--json"]].concat());
+    assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["device"], device);
+    let reason = r["device_reason"].as_str().unwrap();
+    assert!(reason.contains(why), "{reason}");
+    assert_eq!(r["threads"], 2);
+    let o = run(&args);
+    assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+    let line = text(&o.stdout);
+    assert!(line.contains(reason), "{line}");
+    if device == "cpu" {
+        assert!(line.contains("on the CPU (2 threads)"), "{line}");
+    }
     let _ = fs::remove_dir_all(&d);
 }
 

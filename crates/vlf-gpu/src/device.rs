@@ -88,10 +88,28 @@ impl AdapterSummary {
         }
     }
 
-    /// True for CPU rasterisers such as lavapipe/llvmpipe.
+    /// True for software rasterisers (lavapipe/llvmpipe, WARP, SwiftShader): the "GPU" work
+    /// runs on the CPU cores ([`is_software_adapter`]).
     pub fn is_software(&self) -> bool {
-        self.device_type == "Cpu"
+        self.device_type == "Cpu" || is_software_name(&self.name, &self.driver)
     }
+}
+
+/// Whether an adapter is a software rasteriser: it says so (device type `Cpu`, as lavapipe,
+/// SwiftShader and WARP do), or its name or driver is one of theirs (in case a driver reports
+/// another type). The one home of this rule: the adapter ranking puts these last and
+/// `vlf-bake --device auto` prefers the CPU path to them.
+pub fn is_software_adapter(info: &wgpu::AdapterInfo) -> bool {
+    info.device_type == wgpu::DeviceType::Cpu
+        || is_software_name(&info.name, &format!("{} {}", info.driver, info.driver_info))
+}
+
+fn is_software_name(name: &str, driver: &str) -> bool {
+    let text = format!("{name} {driver}").to_ascii_lowercase();
+    text.contains("microsoft basic render driver")
+        || text
+            .split(|c: char| !c.is_ascii_alphanumeric())
+            .any(|w| matches!(w, "llvmpipe" | "lavapipe" | "swiftshader" | "warp"))
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -323,6 +341,7 @@ async fn select_adapter(
 
 fn adapter_rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     let ty = match info.device_type {
+        _ if is_software_adapter(info) => 4,
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,
         wgpu::DeviceType::VirtualGpu => 2,
@@ -386,4 +405,46 @@ pub fn negotiate_limits(adapter: &wgpu::Limits) -> Result<wgpu::Limits, Vec<Stri
         max_compute_workgroups_per_dimension: adapter.max_compute_workgroups_per_dimension,
         ..min
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::AdapterSummary;
+
+    fn summary(name: &str, device_type: &str, driver: &str) -> AdapterSummary {
+        AdapterSummary {
+            name: name.into(),
+            backend: "Vulkan".into(),
+            device_type: device_type.into(),
+            driver: driver.into(),
+        }
+    }
+
+    #[test]
+    fn software_rasterisers_by_type_or_name() {
+        for s in [
+            summary(
+                "llvmpipe (LLVM 15.0.6, 256 bits)",
+                "Cpu",
+                "llvmpipe Mesa 22.3.6",
+            ),
+            summary("llvmpipe (LLVM 15.0.6, 256 bits)", "Other", "llvmpipe"),
+            summary("SwiftShader Device (Subzero)", "Other", ""),
+            summary("Microsoft Basic Render Driver", "Other", ""),
+            summary("Some CPU device", "Cpu", ""),
+        ] {
+            assert!(s.is_software(), "{s}");
+        }
+        for s in [
+            summary("NVIDIA GeForce RTX 4090", "DiscreteGpu", "NVIDIA 550.54"),
+            summary(
+                "AMD Radeon Graphics (RADV RENOIR)",
+                "IntegratedGpu",
+                "radv Mesa",
+            ),
+            summary("Warpdrive X1", "DiscreteGpu", "warpdrive 1.0"),
+        ] {
+            assert!(!s.is_software(), "{s}");
+        }
+    }
 }

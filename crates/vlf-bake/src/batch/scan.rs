@@ -8,6 +8,7 @@ use std::time::SystemTime;
 use vlf_core::lightfield::BakeParams;
 
 use super::BatchError;
+use crate::cli::Shard;
 
 /// Scene files under `dir`, relative to it, sorted; symbolic links are not followed.
 pub fn discover(dir: &Path) -> Result<Vec<PathBuf>, BatchError> {
@@ -67,6 +68,31 @@ fn is_scene(p: &Path) -> bool {
     p.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// The scenes of `shard` among `scenes` (as [`discover`] lists them, sorted). The distinct
+/// outputs (a scene's path without its extension: `a.gltf` and `a.glb` both bake to `a.vlf`)
+/// are numbered in sorted order and shard I of N takes those numbered I, I + N, I + 2N, …
+/// (1-based), with every scene that bakes to them: the N shards partition the list, their
+/// numbers of outputs differ by at most one, two scenes with the same output land in the same
+/// shard (whose batch reports the clash), and the split depends only on the list (the same on
+/// every machine that sees the same folder). No shard: every scene.
+pub fn shard(scenes: Vec<PathBuf>, shard: Option<Shard>) -> Vec<PathBuf> {
+    let Some(Shard { index, count }) = shard else {
+        return scenes;
+    };
+    let mut outputs: Vec<PathBuf> = scenes.iter().map(|p| p.with_extension("")).collect();
+    outputs.sort();
+    outputs.dedup();
+    scenes
+        .into_iter()
+        .filter(|p| {
+            let k = outputs
+                .binary_search(&p.with_extension(""))
+                .expect("every scene's output is listed");
+            k % count as usize == (index - 1) as usize
+        })
+        .collect()
 }
 
 /// `Ok(header)` when `output` can be skipped, `Err(reason to bake)` otherwise (`None` when

@@ -97,3 +97,48 @@ fn reports_are_written_atomically() {
     );
     fs::remove_dir_all(&d).unwrap();
 }
+
+/// `--shard I/N` over a folder: the N shards are disjoint, their union is every scene
+/// `discover` lists, their sizes differ by at most one output, the split is the same when
+/// asked again (it depends only on the sorted list), and two scenes with the same output
+/// (`x.gltf`, `x.glb`) land in the same shard, where the batch reports the clash.
+#[test]
+fn shards_partition_the_folder() {
+    let d = tmpdir("shards");
+    for k in 0..11 {
+        let p = d.join(["a", "b/c", "."][k % 3]).join(format!("s{k}.gltf"));
+        fs::create_dir_all(p.parent().unwrap()).unwrap();
+        fs::write(&p, b"{}").unwrap();
+    }
+    fs::write(d.join("a/s0.glb"), b"glTF").unwrap();
+    let all = discover(&d).unwrap();
+    assert_eq!(all.len(), 12);
+    assert_eq!(shard(all.clone(), None), all);
+    for count in 1..=13u32 {
+        let mut union = Vec::new();
+        let mut sizes = Vec::new();
+        for index in 1..=count {
+            let sh = Some(Shard { index, count });
+            let part = shard(discover(&d).unwrap(), sh);
+            assert_eq!(part, shard(all.clone(), sh), "stable");
+            let s0 = part
+                .iter()
+                .filter(|p| p.to_string_lossy().starts_with("a/s0."))
+                .count();
+            assert!(
+                s0 == 0 || s0 == 2,
+                "{count} shards split a/s0.gltf from a/s0.glb"
+            );
+            sizes.push(part.len() - s0 / 2);
+            union.extend(part);
+        }
+        union.sort();
+        let before = union.len();
+        union.dedup();
+        assert_eq!(union.len(), before, "{count} shards overlap");
+        assert_eq!(union, all, "{count} shards miss scenes");
+        let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+        assert!(hi - lo <= 1, "{count} shards: outputs {sizes:?}");
+    }
+    let _ = fs::remove_dir_all(&d);
+}

@@ -102,7 +102,7 @@ impl Budget {
                 device: None,
                 buffer: None,
             },
-            Compute::Gpu(ctx) => {
+            Compute::Gpu(ctx, _) => {
                 let limits = ctx.device.limits();
                 let buffer = Some(Limit {
                     bytes: limits

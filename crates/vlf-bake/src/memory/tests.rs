@@ -88,7 +88,7 @@ fn gpu_plan(ctx: vlf_gpu::GpuContext) -> (Compute, MemoryPlan) {
         tile: 8,
         ..BakeParams::paper()
     };
-    let compute = Compute::Gpu(Box::new(ctx));
+    let compute = Compute::Gpu(Box::new(ctx), "test".into());
     let budget = Budget::new(None, &compute, 1);
     assert!(budget.buffer.is_some() && budget.host.is_some());
     let planned = plan_and_prepare(&scene, &p, &compute, &budget, Path::new("t")).unwrap();
@@ -100,7 +100,7 @@ fn gpu_plan(ctx: vlf_gpu::GpuContext) -> (Compute, MemoryPlan) {
 fn gpu_errors_become_messages_not_panics() {
     let Some(ctx) = gpu() else { return };
     let (compute, plan) = gpu_plan(ctx);
-    let Compute::Gpu(ctx) = &compute else {
+    let Compute::Gpu(ctx, _) = &compute else {
         unreachable!()
     };
     // An unbalanced debug group is a validation error, which wgpu's default handler turns
