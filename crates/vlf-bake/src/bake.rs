@@ -120,7 +120,7 @@ pub struct BakeReport {
     /// Why `--device` chose it.
     pub device_reason: String,
     pub adapter: String,
-    /// Worker threads of the CPU work (propagation on the CPU path, final gather).
+    /// Worker threads of the CPU work (propagation on the CPU path, final gather, resampling).
     pub threads: usize,
     pub params: BakeParams,
     pub directions: usize,

@@ -158,9 +158,9 @@ pub struct BakeArgs {
     /// 3/4 of the RAM (on a hardware GPU, --max-memory bounds the GPU buffers).
     #[arg(long, value_name = "SIZE", value_parser = crate::memory::parse_size)]
     pub max_memory: Option<u64>,
-    /// Worker threads of the CPU work: the propagation on the CPU path and the final gather
-    /// (0 = every core; `batch` divides the cores between its --jobs). The file is
-    /// bit-identical whatever the number.
+    /// Worker threads of the CPU work: the propagation on the CPU path, the final gather and
+    /// the mirror tiles' resampling (0 = every core; `batch` divides the cores between its
+    /// --jobs). The file is bit-identical whatever the number.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub threads: usize,
 }
