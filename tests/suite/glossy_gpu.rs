@@ -49,8 +49,8 @@ fn assert_gpu_matches_cpu(cpu: &Propagated, gpu: &Propagated, software: bool, wh
     assert_eq!(ci, gi, "{what}: tile index");
     if software {
         assert!(
-            bits(&cpu.radiance) == bits(&gpu.radiance),
-            "{what}: texel radiance differs"
+            bits(&cpu.irradiance) == bits(&gpu.irradiance),
+            "{what}: texel irradiance differs"
         );
         assert!(bits(cv) == bits(gv), "{what}: tile values differ");
         // The host sums some terms in another order (emitted differs in the 8th digit).
