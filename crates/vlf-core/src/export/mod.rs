@@ -30,7 +30,7 @@ use serde_json::{Value, json};
 
 use crate::bake::BakeScene;
 use crate::lightfield::LightField;
-use crate::scene::{FilterMode, MaterialKind, Scene, Texture, WrapMode};
+use crate::scene::{FilterMode, Scene, Texture, WrapMode};
 
 pub use encode::{rgbm_decode, rgbm_range};
 
@@ -164,6 +164,13 @@ fn prepare(lf: &LightField, scene: &Scene) -> Result<BakeScene, ExportError> {
             lf.faces.len()
         ));
     }
+    if scene.materials.len() != lf.shading.materials.len() {
+        return mismatch(format!(
+            "{} materials, the light field has {}",
+            scene.materials.len(),
+            lf.shading.materials.len()
+        ));
+    }
     let Some(texel_size) = lf.faces.first().map(|f| f.texel_size) else {
         return mismatch("the light field has no face".into());
     };
@@ -213,7 +220,7 @@ pub fn export_glb(
         [e[0], e[1], e[2]]
     });
 
-    let mut w = Writer::new(scene, options.encoding);
+    let mut w = Writer::new(scene, lf, options.encoding);
     w.lightmaps(&layout, &pages)?;
     w.geometry(lf, scene, &layout)?;
     w.cameras(lf);
@@ -223,6 +230,9 @@ pub fn export_glb(
 /// The glTF being written.
 struct Writer<'a> {
     scene: &'a Scene,
+    /// Per scene material, the weight of its diffuse part as baked (the light field's
+    /// shading materials: a rough metal folded into the diffuse part has its own).
+    diffuse_weights: Vec<f32>,
     encoding: LightmapEncoding,
     buf: glb::Buffer,
     images: Vec<Value>,
@@ -243,9 +253,15 @@ struct Writer<'a> {
 }
 
 impl<'a> Writer<'a> {
-    fn new(scene: &'a Scene, encoding: LightmapEncoding) -> Self {
+    fn new(scene: &'a Scene, lf: &LightField, encoding: LightmapEncoding) -> Self {
         Self {
             scene,
+            diffuse_weights: lf
+                .shading
+                .materials
+                .iter()
+                .map(|m| m.diffuse_weight)
+                .collect(),
             encoding,
             buf: glb::Buffer::default(),
             images: Vec::new(),
@@ -382,11 +398,9 @@ impl<'a> Writer<'a> {
     /// emits, the back side does not (emission is one-sided in vlf).
     fn material(&mut self, m: u32, back: bool, page: u32) -> Result<usize, ExportError> {
         let mat = &self.scene.materials[m as usize];
-        let (metallic, roughness) = match mat.kind {
-            MaterialKind::Diffuse => (0.0, 1.0),
-            MaterialKind::Mirror => (1.0, 0.0),
-            MaterialKind::Mixed { specular } => (specular, 0.0),
-        };
+        // The engine's diffuse part is baseColor × (1 − metallic): the bake's diffuse weight.
+        let metallic = 1.0 - self.diffuse_weights[m as usize];
+        let roughness = if metallic > 0.0 { 0.0 } else { 1.0 };
         let b = mat.base_color;
         let mut pbr = json!({
             "baseColorFactor": [b.x, b.y, b.z, 1.0],
