@@ -275,3 +275,65 @@ fn ktx2_is_refused_and_a_foreign_scene_too() {
     let err = export_glb(&lf, &other, &ExportOptions::default()).unwrap_err();
     assert!(matches!(err, ExportError::SceneMismatch(_)), "{err}");
 }
+
+/// An engine's diffuse albedo, baseColor × (1 − metallicFactor), is the one vlf-view shades the
+/// lightmap with: 1 − the bake's diffuse weight, also for a rough metal the bake folded into
+/// its diffuse part (exported as plain diffuse before).
+#[test]
+fn metallic_factor_is_one_minus_the_baked_diffuse_weight() {
+    let mut b = SceneBuilder::new();
+    let lamp = b.diffuse("lamp", Vec3::splat(0.5), Vec3::ONE);
+    let rough = b.material(crate::scene::Material {
+        name: "rough metal".into(),
+        base_color: Vec3::splat(0.9),
+        base_color_texture: None,
+        emission: Vec3::ZERO,
+        emissive_texture: None,
+        double_sided: true,
+        kind: crate::scene::MaterialKind::Mirror,
+        metallic: 1.0,
+        roughness: 0.9,
+    });
+    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, lamp);
+    b.quad(
+        [
+            Vec3::new(-0.5, -0.9, -0.5),
+            Vec3::new(-0.5, -0.9, 0.5),
+            Vec3::new(0.5, -0.9, 0.5),
+            Vec3::new(0.5, -0.9, -0.5),
+        ],
+        rough,
+    );
+    let scene = b.build("test/metal.gltf");
+    let params = BakeParams {
+        directions: 21,
+        resolution: 8,
+        iterations: Iterations::Fixed(1),
+        final_gather: None,
+        ..BakeParams::paper()
+    };
+    let lf = crate::pipeline::bake_cpu(&scene, &params).unwrap();
+    let w = lf.shading.materials[rough as usize].diffuse_weight;
+    assert!(w > 0.3 && w < 1.0, "folded weight {w}");
+    let out = export_glb(&lf, &scene, &ExportOptions::default()).unwrap();
+    let json_len = u32::from_le_bytes(out.glb[12..16].try_into().unwrap()) as usize;
+    let root: serde_json::Value = serde_json::from_slice(&out.glb[20..20 + json_len]).unwrap();
+    let mats = root["materials"].as_array().unwrap();
+    let metal: Vec<f64> = mats
+        .iter()
+        .filter(|m| m["name"].as_str().unwrap().starts_with("rough metal"))
+        .map(|m| {
+            m["pbrMetallicRoughness"]["metallicFactor"]
+                .as_f64()
+                .unwrap()
+        })
+        .collect();
+    assert!(!metal.is_empty());
+    for m in metal {
+        assert!(
+            (m - f64::from(1.0 - w)).abs() < 1e-6,
+            "metallic {m}, want {}",
+            1.0 - w
+        );
+    }
+}
