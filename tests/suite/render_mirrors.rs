@@ -6,7 +6,7 @@
 
 use glam::{Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, Iterations, LightField};
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
+use vlf_core::scene::{Scene, SceneBuilder};
 use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
@@ -26,20 +26,6 @@ fn small_params(sky: Vec3) -> BakeParams {
         sky,
         ..BakeParams::paper()
     }
-}
-
-fn mirror(b: &mut SceneBuilder, reflectance: Vec3) -> u32 {
-    b.material(Material {
-        name: "mirror".into(),
-        base_color: reflectance,
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: 0.0,
-    })
 }
 
 /// Horizontal quad at height y spanning [-s, s]², facing up or down.
@@ -83,7 +69,7 @@ fn mirror_under_uniform_sky_reads_reflectance_times_sky_exactly() {
     let Some(ctx) = gpu() else { return };
     let (rho, sky) = (Vec3::new(0.9, 0.6, 0.3), Vec3::new(1.0, 2.0, 3.0));
     let mut b = SceneBuilder::new();
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", rho);
     hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("mirror under sky");
     let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(sky)).unwrap();
@@ -134,7 +120,7 @@ fn parallel_mirrors_show_the_geometric_series_up_to_the_depth_bound() {
     let Some(ctx) = gpu() else { return };
     let (rho, sky) = (0.5f32, Vec3::new(1.0, 1.0, 1.0));
     let mut b = SceneBuilder::new();
-    let m = mirror(&mut b, Vec3::splat(rho));
+    let m = b.mirror("mirror", Vec3::splat(rho));
     hquad(&mut b, 0.0, 1.0, true, m);
     hquad(&mut b, 1.0, 1.0, false, m);
     let scene = b.build("parallel mirrors");

@@ -9,7 +9,7 @@ use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
+use vlf_core::scene::{Scene, SceneBuilder};
 use vlf_tests::gpu;
 
 fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
@@ -287,17 +287,7 @@ fn gpu_stability_mirror_image() {
     let mut b = SceneBuilder::new();
     let light = b.diffuse("light", Vec3::ZERO, Vec3::ONE);
     let recv = b.diffuse("receiver", Vec3::splat(0.5), Vec3::ZERO);
-    let m = b.material(Material {
-        name: "mirror".into(),
-        base_color: Vec3::splat(0.9),
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: 0.0,
-    });
+    let m = b.mirror("mirror", Vec3::splat(0.9));
     hrect(&mut b, 0.5, (-0.6, -0.2), (-0.2, 0.2), false, light);
     hrect(&mut b, 0.5, (0.2, 0.6), (-0.2, 0.2), false, recv);
     hrect(&mut b, 0.0, (-1.0, 1.0), (-0.6, 0.6), true, m);

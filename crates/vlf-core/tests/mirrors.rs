@@ -5,21 +5,7 @@ use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
-
-fn mirror(b: &mut SceneBuilder, reflectance: f32) -> u32 {
-    b.material(Material {
-        name: "mirror".into(),
-        base_color: Vec3::splat(reflectance),
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: 0.0,
-    })
-}
+use vlf_core::scene::{Scene, SceneBuilder};
 
 fn bake(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet, Propagated) {
     let prep = BakeScene::new(scene, params).unwrap();
@@ -59,7 +45,7 @@ fn mirror_facing_uniform_emitter_reflects_rho_times_emission() {
     let (le, rho) = (Vec3::new(2.0, 1.0, 0.5), 0.8);
     let mut b = SceneBuilder::new();
     let light = b.diffuse("light", Vec3::ZERO, le);
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", Vec3::splat(rho));
     hquad(&mut b, 0.2, 3.0, false, light); // large emitter just above, facing down
     hquad(&mut b, 0.0, 0.5, true, m); // mirror facing up
     let scene = b.build("mirror under emitter");
@@ -117,7 +103,7 @@ fn parallel_mirrors_give_the_geometric_series() {
     let mut b = SceneBuilder::new();
     let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(le));
     let recv = b.diffuse("receiver", Vec3::splat(rho_recv), Vec3::ZERO);
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", Vec3::splat(rho));
     // Emitter at x = -len facing +x; receiver at x = +len facing −x.
     b.quad(
         [
@@ -224,7 +210,7 @@ fn caustic_energy_matches_reflected_energy() {
         let light = b.diffuse("light", Vec3::ZERO, le);
         let wall = b.diffuse("wall", Vec3::splat(wall_albedo), Vec3::ZERO);
         let mm = match mirror_kind {
-            Some(r) => mirror(&mut b, r),
+            Some(r) => b.mirror("mirror", Vec3::splat(r)),
             None => b.diffuse("white", Vec3::ONE, Vec3::ZERO),
         };
         hquad(&mut b, 0.0, 0.15, true, light); // light facing up

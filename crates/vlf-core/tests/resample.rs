@@ -13,20 +13,6 @@ use vlf_core::psf::{PsfGrid, fixed_frame};
 use vlf_core::resample::resample_tiles;
 use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
 
-fn mirror(b: &mut SceneBuilder, reflectance: f32) -> u32 {
-    b.material(Material {
-        name: "mirror".into(),
-        base_color: Vec3::splat(reflectance),
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: 0.0,
-    })
-}
-
 /// Horizontal quad at height y spanning [-s, s]², facing up or down.
 fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
     let mut q = [
@@ -104,7 +90,7 @@ fn resampled(scene: &Scene, sky: Vec3) -> Vec<(Vec3, Vec3, Vec3, u32)> {
 fn a_mirror_under_a_uniform_sky_reflects_reflectance_times_sky() {
     let (sky, rho) = (Vec3::new(2.0, 1.0, 0.5), 0.75);
     let mut b = SceneBuilder::new();
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", Vec3::splat(rho));
     hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("mirror under the sky");
     for (_, _, value, _) in resampled(&scene, sky) {
@@ -117,7 +103,7 @@ fn a_mirror_under_a_uniform_sky_reflects_reflectance_times_sky() {
 fn a_mirror_under_an_emitting_rectangle_sees_exactly_where_it_is() {
     let (le, rho) = (Vec3::new(3.0, 2.0, 1.0), 0.5);
     let mut b = SceneBuilder::new();
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", Vec3::splat(rho));
     let lamp = b.diffuse("lamp", Vec3::ZERO, le);
     hquad(&mut b, 0.0, 1.0, true, m);
     // A 0.8 × 0.8 emitter 1 above the mirror, facing down.
@@ -162,7 +148,7 @@ fn parallel_mirrors_sum_the_geometric_series_up_to_the_depth_bound() {
     // bound; check the series of tilted values instead, which escape after a known count.
     let (sky, rho) = (Vec3::splat(1.0), 0.5);
     let mut b = SceneBuilder::new();
-    let m = mirror(&mut b, rho);
+    let m = b.mirror("mirror", Vec3::splat(rho));
     hquad(&mut b, 0.0, 1.0, true, m);
     hquad(&mut b, 1.0, 1.0, false, m);
     let scene = b.build("parallel mirrors");

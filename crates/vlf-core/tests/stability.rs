@@ -18,7 +18,7 @@ use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::psf::{PsfFrame, PsfGrid, fixed_frame};
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
+use vlf_core::scene::{Scene, SceneBuilder};
 
 /// `emitted + injected = absorbed + escaped + unshot` to this fraction: twice the Cornell-box
 /// bound of `tests/propagation.rs` (0.5 % at 126 directions × 32²): these scenes use as few as 46
@@ -760,20 +760,6 @@ fn distant_small_emitter_shows_direction_holes_that_perturbation_fills() {
 
 // ----- 4. mirrors: ghosting and convergence ------------------------------------------------------
 
-fn mirror_material(b: &mut SceneBuilder, reflectance: f32) -> u32 {
-    b.material(Material {
-        name: "mirror".into(),
-        base_color: Vec3::splat(reflectance),
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: 0.0,
-    })
-}
-
 /// Emitter `[-0.6, -0.2] × [-0.2, 0.2]` and receiver `[0.2, 0.6] × [-0.2, 0.2]` (albedo 0.5)
 /// side by side at height 0.5, both facing down (so the receiver cannot see the emitter), over a
 /// floor mirror of reflectance 0.9: the receiver sees only the emitter's image.
@@ -781,7 +767,7 @@ fn mirror_scene() -> Scene {
     let mut b = SceneBuilder::new();
     let light = b.diffuse("light", Vec3::ZERO, Vec3::ONE);
     let recv = b.diffuse("receiver", Vec3::splat(0.5), Vec3::ZERO);
-    let m = mirror_material(&mut b, 0.9);
+    let m = b.mirror("mirror", Vec3::splat(0.9));
     hrect(&mut b, 0.5, (-0.6, -0.2), (-0.2, 0.2), false, light);
     hrect(&mut b, 0.5, (0.2, 0.6), (-0.2, 0.2), false, recv);
     hrect(&mut b, 0.0, (-1.0, 1.0), (-0.6, 0.6), true, m);

@@ -33,6 +33,21 @@ impl SceneBuilder {
         })
     }
 
+    /// Adds a perfect mirror (metallic, roughness 0) of reflectance `reflectance`.
+    pub fn mirror(&mut self, name: &str, reflectance: Vec3) -> u32 {
+        self.material(Material {
+            name: name.into(),
+            base_color: reflectance,
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            double_sided: true,
+            kind: MaterialKind::Mirror,
+            metallic: 1.0,
+            roughness: 0.0,
+        })
+    }
+
     /// Adds any material; returns its index.
     pub fn material(&mut self, m: Material) -> u32 {
         self.materials.push(m);
