@@ -1,7 +1,6 @@
 //! `cargo xtask chart [--quick] [--redraw] [SCENE...]`: speed against accuracy on the shared
-//! scenes (issue 8). For each scene: make sure a reference image exists (the shared Mitsuba
-//! ones for the Cornell boxes; `vlf-bake reference` at 4,096 spp for the others, cached under
-//! out/chart/refs), run `vlf-bake sweep` (release build) into docs/bench/chart/SCENE.csv, then
+//! scenes (issue 8). For each scene: run `vlf-bake sweep` (release build) against its Mitsuba 3
+//! reference in ../shared/reference into docs/bench/chart/SCENE.csv, then
 //! draw docs/bench/chart/SCENE-time.svg and SCENE-memory.svg (relMSE and FLIP against time and
 //! against working memory, log-log) and write docs/bench/chart/summary.csv and summary.md (the
 //! auto preset against the best grid point at the same bake time, the path tracer's time to
@@ -21,8 +20,8 @@ use crate::ci::{cargo, step};
 struct ChartScene {
     name: &'static str,
     file: &'static str,
-    /// A shared reference under ../shared/reference, or `None` to path trace one.
-    shared_ref: Option<&'static str>,
+    /// Its Mitsuba 3 reference under ../shared/reference, rendered from `view`.
+    shared_ref: &'static str,
     /// `vlf-bake` view arguments (empty: the glTF camera 0).
     view: &'static [&'static str],
     /// Sweep grid when not `--quick`: `full`, or `quick` for a scene where the full grid would
@@ -32,16 +31,11 @@ struct ChartScene {
     high: bool,
 }
 
-/// Samples per pixel and seed of the references we path trace ourselves. The sweep's own
-/// path tracer uses seed 1, so its noise is independent of the reference's.
-const REF_SPP: u32 = 4096;
-const REF_SEED: u32 = 7;
-
 const SCENES: &[ChartScene] = &[
     ChartScene {
         name: "cornell-box",
         file: "cornell-box/cornell.gltf",
-        shared_ref: Some("cornell-ref.exr"),
+        shared_ref: "cornell-ref.exr",
         view: &[],
         grid: "full",
         high: true,
@@ -49,16 +43,16 @@ const SCENES: &[ChartScene] = &[
     ChartScene {
         name: "cornell-box-mirror",
         file: "cornell-box-mirror/cornell-mirror.gltf",
-        shared_ref: Some("cornell-mirror-ref.exr"),
+        shared_ref: "cornell-mirror-ref.exr",
         view: &[],
         grid: "full",
         high: false,
     },
-    // The viewpoints suggested in ../shared/scenes/README.md (the files have no camera).
+    // The files have no camera: the look-at views of ../shared/reference/README.md.
     ChartScene {
         name: "fog-room",
         file: "fog-room/VolumetricFogExample.glb",
-        shared_ref: None,
+        shared_ref: "fog-room-ref.exr",
         view: &[
             "--look-from",
             "2.8,3.0,0",
@@ -73,7 +67,7 @@ const SCENES: &[ChartScene] = &[
     ChartScene {
         name: "cornell-suzanne",
         file: "cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf",
-        shared_ref: None,
+        shared_ref: "cornell-suzanne-ref.exr",
         view: &[
             "--look-from",
             "0,1.5,6.5",
@@ -82,7 +76,7 @@ const SCENES: &[ChartScene] = &[
             "--fov",
             "40",
         ],
-        grid: "full",
+        grid: "quick",
         high: false,
     },
 ];
@@ -114,28 +108,9 @@ pub fn chart(root: &Path, args: &[String]) -> Result<()> {
             cargo(root).args(["build", "--release", "-p", "vlf-bake"]),
         )?;
         let bin = root.join("target/release/vlf-bake");
-        let refs = root.join("out/chart/refs");
-        std::fs::create_dir_all(&refs)?;
         for s in &scenes {
             let scene_path = shared.join("scenes").join(s.file);
-            let reference = match s.shared_ref {
-                Some(r) => shared.join("reference").join(r),
-                None => {
-                    let r = refs.join(format!("{}-ref-{REF_SPP}spp.exr", s.name));
-                    if !r.exists() {
-                        let mut c = std::process::Command::new(&bin);
-                        c.args(["--device", "cpu", "reference"])
-                            .arg(&scene_path)
-                            .arg("-o")
-                            .arg(&r)
-                            .args(["--size", "256x256", "--spp", &REF_SPP.to_string()])
-                            .args(["--seed", &REF_SEED.to_string()])
-                            .args(s.view);
-                        step(&format!("reference of {}", s.name), &mut c)?;
-                    }
-                    r
-                }
-            };
+            let reference = shared.join("reference").join(s.shared_ref);
             let csv = out.join(format!("{}.csv", s.name));
             // The bakes run on the CPU reference propagator: on a machine whose only adapter
             // is lavapipe it is the faster path; on a hardware GPU drop `--device cpu`.
