@@ -1,6 +1,13 @@
-// Render pass 5 of 5 (paper §4): final radiance, one fragment per pixel (a triangle covering
-// the viewport). Entry points: fs_main writes the radiance target; fs_present (the window's
-// final image) also writes the exposed, tonemapped colour onto the window's surface.
+// Render pass 5 of 5 (paper §4): final radiance. Entry points:
+// * vs_main + fs_main (stills, debug views): one fragment per pixel (a triangle covering the
+//   viewport) reading pass 3's face id and pass 4's position and uv, writing the radiance target.
+// * vs_surface + fs_surface, vs_main + fs_sky (the window's final image): pass 4 fused into
+//   this pass. The scene's triangles are drawn again against pass 3's depth (greater or equal,
+//   no writes), each fragment with its position and uv interpolated as pass 4 interpolates them
+//   and its face record as flat varyings read once per vertex, and write the exposed,
+//   tonemapped colour onto the window's surface; fs_sky draws the background (the viewport
+//   triangle at depth 0, test "greater or equal": the pixels no face covers, reverse-Z). Same values as fs_main, with
+//   4 texel fetches per diffuse pixel instead of 11 (vlf_gpu::render::final_radiance).
 // Per-pixel data is read from textures, not storage buffers (much faster on lavapipe); the
 // face records and the atlas are linear arrays wrapped into texture rows (see
 // crates/vlf-gpu/src/render/upload.rs for their layout).
@@ -37,7 +44,7 @@
 // sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
 // pixel holds the mean over its square.
 //
-// In the window (fs_present), textured light fields are drawn in two parts where the device
+// In the window (fs_surface), textured light fields are drawn in two parts where the device
 // has a stencil for it (vlf_gpu::render::final_radiance): pixels showing a textured face (pass
 // 3 marked them in the stencil) with the texture code, the others without (BASE_TEXTURES and
 // EMISSIVE_TEXTURES false), so that only they pay for it: llvmpipe runs divergent branches
@@ -48,6 +55,7 @@
 #import "common/display_mapping.wgsl"
 #import "common/texture.wgsl"
 #import "common/bvh.wgsl"
+#import "common/bake_scene.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
@@ -85,7 +93,7 @@ const MIRROR_DEPTH: u32 = 8u;
 @group(1) @binding(3) var positions: texture_2d<f32>;
 // Face records: 8 texels per face (normal, kind | flags · origin, texel_size · u, width ·
 // v, height · ρ_d/π, texel_base · Le, 0 · base-colour texture, emissive texture, 0, 0 ·
-// mirror reflectance, 0), floats as bits.
+// mirror reflectance, 0), floats as bits. Also read by vs_surface.
 @group(1) @binding(4) var face_records: texture_2d<u32>;
 // Irradiance per atlas texel (rgb; a unused), both sides of every face, in the light field's
 // stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel fetch decodes
@@ -107,6 +115,9 @@ const MIRROR_DEPTH: u32 = 8u;
 // TEXCOORD_0 at the corners of the mirror-tracing BVH's triangles, three per triangle in leaf
 // order.
 @group(1) @binding(15) var<storage, read> mirror_uvs: array<vec2<f32>>;
+// vs_surface only: the scene's triangles (as pass 4 binds them) and their corners' TEXCOORD_0.
+@group(1) @binding(16) var<storage, read> surface_triangles: array<BakeTriangle>;
+@group(1) @binding(17) var<storage, read> surface_uvs: array<vec2<f32>>;
 
 struct Face {
     normal: vec3<f32>,
@@ -121,6 +132,8 @@ struct Face {
     // Diffuse albedo factor / π.
     rho_over_pi: vec3<f32>,
     texel_base: u32,
+    // Emission factor Le.
+    emission: vec3<f32>,
 }
 
 fn face_texel(face: u32, k: u32) -> vec4<u32> {
@@ -128,19 +141,22 @@ fn face_texel(face: u32, k: u32) -> vec4<u32> {
     return textureLoad(face_records, vec2<u32>(x, face / FACES_PER_ROW), 0);
 }
 
-fn load_face(face: u32) -> Face {
-    let r0 = face_texel(face, 0u);
-    let r1 = face_texel(face, 1u);
-    let r2 = face_texel(face, 2u);
-    let r3 = face_texel(face, 3u);
-    let r4 = face_texel(face, 4u);
+// Texels 0–5 of a face record as a Face.
+fn face_from(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, r4: vec4<u32>,
+             r5: vec4<u32>) -> Face {
     return Face(
         bitcast<vec3<f32>>(r0.xyz), r0.w & KIND_MASK, r0.w & ~KIND_MASK,
         bitcast<vec3<f32>>(r1.xyz), bitcast<f32>(r1.w),
         bitcast<vec3<f32>>(r2.xyz), r2.w,
         bitcast<vec3<f32>>(r3.xyz), r3.w,
         bitcast<vec3<f32>>(r4.xyz), r4.w,
+        bitcast<vec3<f32>>(r5.xyz),
     );
+}
+
+fn load_face(face: u32) -> Face {
+    return face_from(face_texel(face, 0u), face_texel(face, 1u), face_texel(face, 2u),
+        face_texel(face, 3u), face_texel(face, 4u), face_texel(face, 5u));
 }
 
 fn atlas_texel(i: u32) -> vec3<f32> {
@@ -311,22 +327,13 @@ fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, uv: vec2<f32
         l = rho * atlas_irradiance(f, side, p);
     }
     if side == 0u && (f.flags & FLAG_EMISSIVE) != 0u {
-        var le = bitcast<vec3<f32>>(face_texel(face, 5u).xyz);
+        var le = f.emission;
         if EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u {
             le = le * surface_texture(tex.y, uv);
         }
         l = l + le;
     }
     return l;
-}
-
-// surface_radiance_uv at the pixel `px` (its uv from pass 4, read only for textured faces).
-fn surface_radiance(face: u32, f: Face, side: u32, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
-    var uv = vec2<f32>(0.0);
-    if is_textured(f) {
-        uv = textureLoad(uvs, px, 0).xy;
-    }
-    return surface_radiance_uv(face, f, side, p, uv);
 }
 
 fn specular_reflectance(face: u32) -> vec3<f32> {
@@ -381,6 +388,27 @@ fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_vertex(vi);
 }
 
+// The radiance towards the eye of the visible point `p` of face `face` (record `f`) at pixel
+// `px`, `uv` its TEXCOORD_0 (used only for textured faces).
+fn shade_surface(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, px: vec2<i32>) -> vec3<f32> {
+    // The side facing the camera: front (0) when the eye is on the normal's side.
+    let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
+    var l = surface_radiance_uv(face, f, side, p, uv);
+    if SPECULAR && f.kind != FACE_DIFFUSE {
+        var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        if TRACING {
+            traced = traced_specular(face, f, p);
+        }
+        if traced.w != 0.0 {
+            l += specular_radiance(face, f.normal, p, px);
+        } else {
+            l += traced.rgb;
+        }
+    }
+    return l;
+}
+
+// One pixel from the targets of passes 3 and 4.
 fn shade(frag: vec4<f32>) -> vec4<f32> {
     let pu = vec2<u32>(frag.xy);
     let px = vec2<i32>(pu);
@@ -390,20 +418,11 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
     if face != NO_FACE && face < g.face_count {
         let p = textureLoad(positions, px, 0).xyz;
         let f = load_face(face);
-        // The side facing the camera: front (0) when the eye is on the normal's side.
-        let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
-        l = surface_radiance(face, f, side, p, px);
-        if SPECULAR && f.kind != FACE_DIFFUSE {
-            var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-            if TRACING {
-                traced = traced_specular(face, f, p);
-            }
-            if traced.w != 0.0 {
-                l += specular_radiance(face, f.normal, p, px);
-            } else {
-                l += traced.rgb;
-            }
+        var uv = vec2<f32>(0.0);
+        if is_textured(f) {
+            uv = textureLoad(uvs, px, 0).xy;
         }
+        l = shade_surface(face, f, p, uv, px);
         hit = 1.0;
     }
     return vec4<f32>(l, hit);
@@ -424,17 +443,56 @@ fn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     return sample;
 }
 
-struct Presented {
-    @location(0) radiance: vec4<f32>,
-    @location(1) colour: vec4<f32>,
+// The window's colour of radiance `l` (exposed, tonemapped, encoded).
+fn present(l: vec3<f32>) -> vec4<f32> {
+    return encode(tonemap(l, g.exposure, g.tonemap), g.encode_srgb);
 }
 
-// Pass 5 fused with the display of the final image (window): the radiance target as in
-// fs_main, plus the exposed, tonemapped, encoded colour on the window's surface. Saves a
-// full-screen pass that would only read the radiance back. One sample per pixel, so it writes
-// no memory besides its targets, which lets the stencil test run before the shader (below).
+// A vertex of the scene for the window's final image: what pass 4 interpolates (the same
+// corners and transform, so the depths equal pass 3's) and the face record, flat.
+struct SurfaceVertex {
+    @builtin(position) @invariant clip: vec4<f32>,
+    @location(0) position: vec3<f32>,
+    @location(1) uv: vec2<f32>,
+    @location(2) @interpolate(flat) face: u32,
+    @location(3) @interpolate(flat) r0: vec4<u32>,
+    @location(4) @interpolate(flat) r1: vec4<u32>,
+    @location(5) @interpolate(flat) r2: vec4<u32>,
+    @location(6) @interpolate(flat) r3: vec4<u32>,
+    @location(7) @interpolate(flat) r4: vec4<u32>,
+    @location(8) @interpolate(flat) r5: vec4<u32>,
+}
+
+@vertex
+fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
+    let tri = surface_triangles[vi / 3u];
+    let p = corner_position(tri, vi % 3u);
+    let face = tri.face;
+    var out: SurfaceVertex;
+    out.clip = g.view_proj * vec4<f32>(p, 1.0);
+    out.position = p;
+    out.uv = surface_uvs[vi];
+    out.face = face;
+    out.r0 = face_texel(face, 0u);
+    out.r1 = face_texel(face, 1u);
+    out.r2 = face_texel(face, 2u);
+    out.r3 = face_texel(face, 3u);
+    out.r4 = face_texel(face, 4u);
+    out.r5 = face_texel(face, 5u);
+    return out;
+}
+
+// The window's final image where a face is seen (pass 4 fused into pass 5, see the header).
+// Writes only its colour target, so the depth and stencil tests run before it.
 @fragment
-fn fs_present(@builtin(position) frag: vec4<f32>) -> Presented {
-    let s = shade(frag);
-    return Presented(s, encode(tonemap(s.rgb, g.exposure, g.tonemap), g.encode_srgb));
+fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
+    let f = face_from(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
+    let px = vec2<i32>(vec2<u32>(in.clip.xy));
+    return present(shade_surface(in.face, f, in.position, in.uv, px));
+}
+
+// The window's final image where no face is seen: the sky, as fs_main shades it.
+@fragment
+fn fs_sky() -> @location(0) vec4<f32> {
+    return present(g.sky.rgb);
 }

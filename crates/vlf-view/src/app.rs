@@ -506,7 +506,7 @@ impl Gfx {
 struct Stats {
     fps: f64,
     frame_ms: f64,
-    pass_ms: Option<Vec<f64>>,
+    pass_ms: Option<Vec<Option<f64>>>,
     has_timestamps: bool,
     adapter: String,
     size: (u32, u32),
@@ -530,7 +530,7 @@ impl Stats {
                 0.0
             },
             frame_ms,
-            pass_ms: g.renderer.pass_times().map(<[f64]>::to_vec),
+            pass_ms: g.renderer.pass_times().map(<[Option<f64>]>::to_vec),
             has_timestamps: g.renderer.has_pass_times(),
             adapter: g.ctx.summary.to_string(),
             size: (g.config.width, g.config.height),
@@ -574,9 +574,12 @@ fn panel(
             ui.collapsing("GPU pass times", |ui| match &stats.pass_ms {
                 Some(p) => {
                     for (name, ms) in TIMED_PASSES.iter().zip(p) {
-                        ui.label(format!("{name}: {ms:.2} ms"));
+                        match ms {
+                            Some(ms) => ui.label(format!("{name}: {ms:.2} ms")),
+                            None => ui.label(format!("{name}: skipped")),
+                        };
                     }
-                    ui.label(format!("total: {:.2} ms", p.iter().sum::<f64>()));
+                    ui.label(format!("total: {:.2} ms", p.iter().flatten().sum::<f64>()));
                 }
                 None if stats.has_timestamps => {
                     ui.label("waiting for the first results…");

@@ -268,8 +268,9 @@ pub struct BenchReport {
     pub mirror_tracing: bool,
     /// Wall-clock milliseconds per frame (encode, submit, wait), sorted.
     pub frame_ms: Vec<f64>,
-    /// Mean GPU milliseconds per pass ([`TIMED_PASSES`] order), when timestamps exist.
-    pub pass_ms: Option<Vec<f64>>,
+    /// Mean GPU milliseconds per pass ([`TIMED_PASSES`] order) over the frames that ran it
+    /// (`None` for a pass no frame ran), when timestamps exist.
+    pub pass_ms: Option<Vec<Option<f64>>>,
 }
 
 impl BenchReport {
@@ -305,9 +306,12 @@ impl std::fmt::Display for BenchReport {
             Some(p) => {
                 write!(f, "GPU pass times (mean):")?;
                 for (name, ms) in TIMED_PASSES.iter().zip(p) {
-                    write!(f, " {name} {ms:.2} ms;")?;
+                    match ms {
+                        Some(ms) => write!(f, " {name} {ms:.2} ms;")?,
+                        None => write!(f, " {name} skipped;")?,
+                    }
                 }
-                write!(f, " total {:.2} ms", p.iter().sum::<f64>())
+                write!(f, " total {:.2} ms", p.iter().flatten().sum::<f64>())
             }
             None => write!(f, "GPU pass times: unavailable (no TIMESTAMP_QUERY)"),
         }
@@ -344,8 +348,8 @@ pub fn bench(
     });
     let view = target.create_view(&Default::default());
     let mut frame_ms = Vec::new();
-    let mut pass_sum: Option<Vec<f64>> = None;
-    let mut pass_frames = 0u32;
+    // Per pass: the sum of its times and the frames that ran it.
+    let mut pass_sum: Option<Vec<(f64, u32)>> = None;
     for i in 0..=frames {
         let t = Instant::now();
         let mut encoder = ctx
@@ -381,11 +385,12 @@ pub fn bench(
         }
         frame_ms.push(ms);
         if let Some(p) = renderer.pass_times() {
-            let sum = pass_sum.get_or_insert_with(|| vec![0.0; p.len()]);
+            let sum = pass_sum.get_or_insert_with(|| vec![(0.0, 0); p.len()]);
             for (s, v) in sum.iter_mut().zip(p) {
-                *s += v;
+                if let Some(v) = v {
+                    *s = (s.0 + v, s.1 + 1);
+                }
             }
-            pass_frames += 1;
         }
     }
     frame_ms.sort_by(f64::total_cmp);
@@ -396,6 +401,10 @@ pub fn bench(
         frames,
         mirror_tracing: renderer.mirror_tracing(),
         frame_ms,
-        pass_ms: pass_sum.map(|s| s.into_iter().map(|v| v / f64::from(pass_frames)).collect()),
+        pass_ms: pass_sum.map(|s| {
+            (s.into_iter())
+                .map(|(sum, n)| (n > 0).then(|| sum / f64::from(n)))
+                .collect()
+        }),
     })
 }

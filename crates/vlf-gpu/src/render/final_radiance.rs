@@ -26,7 +26,7 @@
 //!   constant `TRACING` compiles the traversal out of the untraced pipelines.
 //!
 //! Output: this sample's radiance in an `Rgba32Float` render target (what the display, stills
-//! and tests read). Stills with several jittered samples also accumulate into a storage buffer:
+//! and tests read; the window's final image writes its surface only, below). Stills with several jittered samples also accumulate into a storage buffer:
 //! sample 0 overwrites it, later samples add with weight `1 / sample_count`, giving the mean
 //! over the sub-pixel samples.
 //!
@@ -51,10 +51,26 @@
 //!   writes the accumulation buffer, and a shader with such side effects runs (and writes)
 //!   whatever the stencil says.
 //!
-//! Fused display (window): [`FinalRadiancePass::encode_present`] also writes the exposed,
-//! tonemapped colour straight onto the window's surface as a second colour target, instead of a
-//! separate display pass reading the radiance back: 37.5 → 30.2 ms per frame on lavapipe at
-//! 1024×768 (table in [`super`]).
+//! Fused display (window): [`FinalRadiancePass::encode_present`] writes the exposed,
+//! tonemapped colour straight onto the window's surface instead of a separate display pass
+//! reading the radiance back: 37.5 → 30.2 ms per frame on lavapipe at 1024×768 (table in
+//! [`super`]).
+//!
+//! Fused position (window): for the final image the window also skips pass 4
+//! ([`super::Renderer::render_to_view`]) and [`FinalRadiancePass::encode_present`] draws the
+//! scene's triangles instead of a viewport-covering one (`vs_surface`, `fs_surface`), against
+//! pass 3's depth (greater or equal, no writes; the same corners and `@invariant` transform as
+//! passes 3 and 4, so the same depths): each fragment gets pass 4's position and uv as its
+//! interpolated inputs and its face record (texels 0–5, read once per vertex) as flat ones, so
+//! a diffuse pixel reads 4 atlas texels and nothing else, where the full-screen shader reads
+//! the face id, the position, 5 face-record texels and the 4 atlas texels (and llvmpipe pays
+//! the emission texel, under a mask, at every pixel). The background is the viewport triangle
+//! at depth 0 drawn first with the test "greater or equal" (`fs_sky`): the pixels no face
+//! covers, whose depth pass 3 left at 0 (reverse-Z). Each
+//! draw of the stencil split draws the triangles of its stencil group only (the triangles are
+//! uploaded grouped, [`super::upload`]). Where two faces' triangles have equal depths at a
+//! pixel, the last drawn is shaded, as pass 4 takes its position from it (the full-screen
+//! shader took the face from pass 3, the first drawn). Measured in `docs/PERFORMANCE.md`.
 
 use std::collections::HashMap;
 
@@ -156,17 +172,17 @@ pub struct FinalRadiancePass {
     mirrors: bool,
     /// Whether mirror pixels trace (when `mirrors`), see [`FinalRadiancePass::set_tracing`].
     tracing: bool,
-    /// The draw of stills and debug views (one, without stencil), untraced and traced.
-    variants: [Variant; 2],
-    /// Radiance target only (stills, debug views), per entry of `variants` (the traced one only
-    /// with mirrors).
+    /// The full-screen draw into the radiance target (stills, debug views; one variant,
+    /// without stencil), untraced and, with mirrors, traced.
     pipelines: Vec<wgpu::RenderPipeline>,
     /// The draws of the window's final image, in order (see the module docs), untraced and
     /// traced.
     present_variants: [Vec<Variant>; 2],
-    /// Radiance target + the window's surface, one per surface format, tracing and present
-    /// variant.
+    /// The window's surface, one per surface format and tracing: the background's pipeline,
+    /// then one per present variant.
     present_pipelines: HashMap<(wgpu::TextureFormat, bool), Vec<wgpu::RenderPipeline>>,
+    /// Format of pass 3's depth buffer, which the window's draws test against.
+    depth_format: wgpu::TextureFormat,
 }
 
 impl FinalRadiancePass {
@@ -182,6 +198,7 @@ impl FinalRadiancePass {
         depth_format: wgpu::TextureFormat,
     ) -> Self {
         let vis = wgpu::ShaderStages::FRAGMENT;
+        let vertex = wgpu::ShaderStages::VERTEX;
         let unfiltered = wgpu::TextureSampleType::Float { filterable: false };
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("FinalRadiance::pass_layout"),
@@ -190,7 +207,7 @@ impl FinalRadiancePass {
                 storage_entry(1, vis, true),
                 texture_entry(2, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(3, vis, unfiltered),
-                texture_entry(4, vis, wgpu::TextureSampleType::Uint),
+                texture_entry(4, vis | vertex, wgpu::TextureSampleType::Uint),
                 texture_entry(5, vis, unfiltered),
                 storage_entry(6, vis, false),
                 texture_entry(7, vis, wgpu::TextureSampleType::Uint),
@@ -202,6 +219,8 @@ impl FinalRadiancePass {
                 texture_entry(13, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(14, vis, unfiltered),
                 storage_entry(15, vis, true),
+                storage_entry(16, vertex, true),
+                storage_entry(17, vertex, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -229,10 +248,10 @@ impl FinalRadiancePass {
             module,
             mirrors,
             tracing: mirrors,
-            variants,
             pipelines,
             present_variants,
             present_pipelines: HashMap::new(),
+            depth_format,
         }
     }
 
@@ -247,12 +266,21 @@ impl FinalRadiancePass {
         self.tracing
     }
 
+    /// Whether the light field has mirror or mixed faces, whose tiles read passes 1 and 2.
+    pub fn has_mirrors(&self) -> bool {
+        self.mirrors
+    }
+
+    /// The pipeline of `variant`: with `present` (the window's surface format) a draw of the
+    /// window's final image (`vs_surface`, `fs_surface`, depth-tested against pass 3's buffer
+    /// of format `depth_format`), else the full-screen draw into the radiance target
+    /// (`fs_main`).
     fn create_pipeline(
         device: &wgpu::Device,
         layout: &wgpu::PipelineLayout,
         module: &wgpu::ShaderModule,
         variant: Variant,
-        present: Option<wgpu::TextureFormat>,
+        present: Option<(wgpu::TextureFormat, wgpu::TextureFormat)>,
     ) -> wgpu::RenderPipeline {
         let flag = |b: bool| f64::from(u8::from(b));
         let constants = [
@@ -267,34 +295,32 @@ impl FinalRadiancePass {
             depth_fail_op: wgpu::StencilOperation::Keep,
             pass_op: wgpu::StencilOperation::Keep,
         };
-        let depth_stencil = variant
-            .stencil
-            .map(|(_, read_mask)| wgpu::DepthStencilState {
-                format: DEPTH_STENCIL_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: wgpu::StencilState {
-                    front: equal,
-                    back: equal,
-                    read_mask,
-                    write_mask: 0,
-                },
-                bias: Default::default(),
-            });
-        let target = |format| {
-            Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })
+        let stencil = |(_, read_mask): (u32, u32)| wgpu::StencilState {
+            front: equal,
+            back: equal,
+            read_mask,
+            write_mask: 0,
         };
-        let targets = [target(RADIANCE_FORMAT), present.and_then(target)];
-        let (label, entry, targets) = match present {
-            None => ("FinalRadiance::pipeline", "fs_main", &targets[..1]),
-            Some(_) => (
+        let (label, vertex, fragment, format, depth_stencil) = match present {
+            None => (
+                "FinalRadiance::pipeline",
+                "vs_main",
+                "fs_main",
+                RADIANCE_FORMAT,
+                None,
+            ),
+            Some((format, depth_format)) => (
                 "FinalRadiance::present_pipeline",
-                "fs_present",
-                &targets[..],
+                "vs_surface",
+                "fs_surface",
+                format,
+                Some(wgpu::DepthStencilState {
+                    format: depth_format,
+                    depth_write_enabled: Some(false),
+                    depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                    stencil: variant.stencil.map(stencil).unwrap_or_default(),
+                    bias: Default::default(),
+                }),
             ),
         };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -302,7 +328,7 @@ impl FinalRadiancePass {
             layout: Some(layout),
             vertex: wgpu::VertexState {
                 module,
-                entry_point: Some("vs_main"),
+                entry_point: Some(vertex),
                 compilation_options: Default::default(),
                 buffers: &[],
             },
@@ -311,12 +337,59 @@ impl FinalRadiancePass {
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module,
-                entry_point: Some(entry),
+                entry_point: Some(fragment),
                 compilation_options: wgpu::PipelineCompilationOptions {
                     constants: &constants,
                     ..Default::default()
                 },
-                targets,
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// The window's background: the viewport triangle at depth 0 onto `format`, where pass 3's
+    /// depth (format `depth_format`) is still 0 (`fs_sky`; test "greater or equal": a face's
+    /// depth is above 0 with reverse-Z).
+    fn create_sky_pipeline(
+        device: &wgpu::Device,
+        layout: &wgpu::PipelineLayout,
+        module: &wgpu::ShaderModule,
+        format: wgpu::TextureFormat,
+        depth_format: wgpu::TextureFormat,
+    ) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("FinalRadiance::sky_pipeline"),
+            layout: Some(layout),
+            vertex: wgpu::VertexState {
+                module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: depth_format,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module,
+                entry_point: Some("fs_sky"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
             }),
             multiview_mask: None,
             cache: None,
@@ -324,7 +397,8 @@ impl FinalRadiancePass {
     }
 
     /// The pass's resources for one set of targets (rebuilt when the view is resized), with the
-    /// mirror-tracing BVH and its leaf-order uvs (`super::mirror_trace::GpuMirrorScene`).
+    /// mirror-tracing BVH and its leaf-order uvs (`super::mirror_trace::GpuMirrorScene`) and
+    /// the triangles and corner uvs of `lf` (the window's draws).
     pub fn bind(
         &self,
         device: &wgpu::Device,
@@ -369,6 +443,14 @@ impl FinalRadiancePass {
                     binding: 15,
                     resource: mirror_uvs.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 16,
+                    resource: lf.triangles.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 17,
+                    resource: lf.uvs.as_entire_binding(),
+                },
             ],
         })
     }
@@ -382,25 +464,27 @@ impl FinalRadiancePass {
         targets: &Targets,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let attachments = [Some(super::color_attachment(
-            &targets.radiance_view,
-            wgpu::Color::TRANSPARENT,
-        ))];
-        let t = usize::from(self.tracing);
-        Self::draw(
-            encoder,
-            &self.variants[t..=t],
-            &self.pipelines[t..=t],
-            &attachments,
-            targets,
-            globals,
-            bind_group,
-            timestamps,
-        );
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("FinalRadiance::pass"),
+            color_attachments: &[Some(super::color_attachment(
+                &targets.radiance_view,
+                wgpu::Color::TRANSPARENT,
+            ))],
+            depth_stencil_attachment: None,
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, globals, &[]);
+        pass.set_bind_group(1, bind_group, &[]);
+        pass.set_pipeline(&self.pipelines[usize::from(self.tracing)]);
+        pass.draw(0..3, 0..1);
     }
 
-    /// Shades every pixel into the radiance target and, displayed (globals' exposure, tonemap,
-    /// encoding), onto `surface` (format `format`, the size of the targets).
+    /// Draws the window's final image onto `surface` (format `format`, the size of the
+    /// targets; the globals' exposure, tonemap and encoding): the background, then the
+    /// triangles of `lf` against pass 3's depth, each stencil group with its variant's pipeline
+    /// (see the module docs). Passes 1–3 must have run; pass 4 need not.
     #[allow(clippy::too_many_arguments)]
     pub fn encode_present(
         &mut self,
@@ -409,6 +493,7 @@ impl FinalRadiancePass {
         globals: &wgpu::BindGroup,
         bind_group: &wgpu::BindGroup,
         targets: &Targets,
+        lf: &GpuLightField,
         surface: &wgpu::TextureView,
         format: wgpu::TextureFormat,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
@@ -416,58 +501,23 @@ impl FinalRadiancePass {
         let key = (format, self.tracing);
         let variants = &self.present_variants[usize::from(self.tracing)];
         if !self.present_pipelines.contains_key(&key) {
-            let pipelines = (variants.iter())
-                .map(|v| {
-                    Self::create_pipeline(
-                        device,
-                        &self.pipeline_layout,
-                        &self.module,
-                        *v,
-                        Some(format),
-                    )
-                })
+            let (layout, module) = (&self.pipeline_layout, &self.module);
+            let sky = Self::create_sky_pipeline(device, layout, module, format, self.depth_format);
+            let present = Some((format, self.depth_format));
+            let pipelines = std::iter::once(sky)
+                .chain(
+                    (variants.iter())
+                        .map(|v| Self::create_pipeline(device, layout, module, *v, present)),
+                )
                 .collect();
             self.present_pipelines.insert(key, pipelines);
         }
         let pipelines = &self.present_pipelines[&key];
-        let attachments = [
-            Some(super::color_attachment(
-                &targets.radiance_view,
-                wgpu::Color::TRANSPARENT,
-            )),
-            Some(super::color_attachment(surface, wgpu::Color::BLACK)),
-        ];
-        Self::draw(
-            encoder,
-            variants,
-            pipelines,
-            &attachments,
-            targets,
-            globals,
-            bind_group,
-            timestamps,
-        );
-    }
-
-    /// One render pass drawing the viewport-covering triangle once per variant of `variants`
-    /// (with its pipeline from `pipelines` and its stencil reference; the depth-stencil buffer
-    /// read only).
-    #[allow(clippy::too_many_arguments)]
-    fn draw(
-        encoder: &mut wgpu::CommandEncoder,
-        variants: &[Variant],
-        pipelines: &[wgpu::RenderPipeline],
-        attachments: &[Option<wgpu::RenderPassColorAttachment<'_>>],
-        targets: &Targets,
-        globals: &wgpu::BindGroup,
-        bind_group: &wgpu::BindGroup,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        let stencil = variants.iter().any(|v| v.stencil.is_some());
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("FinalRadiance::pass"),
-            color_attachments: attachments,
-            depth_stencil_attachment: stencil.then_some(wgpu::RenderPassDepthStencilAttachment {
+            label: Some("FinalRadiance::present_pass"),
+            color_attachments: &[Some(super::color_attachment(surface, wgpu::Color::BLACK))],
+            // Read only: the depth (and stencil) of pass 3.
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &targets.depth_view,
                 depth_ops: None,
                 stencil_ops: None,
@@ -478,12 +528,19 @@ impl FinalRadiancePass {
         });
         pass.set_bind_group(0, globals, &[]);
         pass.set_bind_group(1, bind_group, &[]);
-        for (v, pipeline) in variants.iter().zip(pipelines) {
+        pass.set_pipeline(&pipelines[0]);
+        pass.draw(0..3, 0..1);
+        for (v, pipeline) in variants.iter().zip(&pipelines[1..]) {
             pass.set_pipeline(pipeline);
             if let Some((r, _)) = v.stencil {
                 pass.set_stencil_reference(r);
             }
-            pass.draw(0..3, 0..1);
+            for (s, w) in lf.stencil_starts.windows(2).enumerate() {
+                let drawn = v.stencil.is_none_or(|(r, mask)| s as u32 & mask == r);
+                if drawn && w[0] < w[1] {
+                    pass.draw(w[0] * 3..w[1] * 3, 0..1);
+                }
+            }
         }
     }
 }

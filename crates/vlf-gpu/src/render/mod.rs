@@ -21,8 +21,12 @@
 //!    samples into a storage buffer.
 //!
 //! Then [`display`] shows the selected [`Pass`]'s output (debug view) on a colour target. For
-//! the final image in the window the display is fused into pass 5 (a second colour target:
-//! the window's surface), see below.
+//! the final image in the window the display is fused into pass 5 (it writes the window's
+//! surface), see below, and so is pass 4: pass 5 draws the scene's triangles against pass 3's
+//! depth and interpolates the position and uv pass 4 would store, with each face's record as
+//! flat inputs ([`final_radiance`]); passes 1–2 run only for light fields with mirror or mixed
+//! faces, whose tiles read them ([`Renderer::render_to_view`]). Stills, debug views and
+//! [`Renderer::render_frame_data`] run the five passes as listed.
 //!
 //! Pass structure, measured on lavapipe (2-core VM, Mesa 22.3.6), Cornell box, 1024×768,
 //! wall-clock per frame (encode, submit, wait), median of 30 frames, variants run alternately:
@@ -37,6 +41,13 @@
 //! separate: one pipeline and one WGSL file each. The fused display saves a full-screen pass
 //! that only read the radiance back (~20 %). Also measured: per-pixel data read by pass 5
 //! (atlas, face records) lives in textures, not storage buffers (see [`upload`]).
+//!
+//! Later (issue 17), with per-pixel albedo in pass 5, CPU time per frame of the default
+//! Cornell bake (llvmpipe on 2 cores, which runs the shaders; `docs/PERFORMANCE.md`): passes
+//! 1–2 ~11 ms of 66, and each texel fetch of pass 5 3–4 ms (face id and position 8, the face
+//! record's five texels 16, the atlas's four 8). Hence, for the window's final image, pass 4
+//! fused into pass 5 (the face record read once per vertex instead of per pixel, no position or
+//! face id read back, no pass 4 targets written) and passes 1–2 skipped without mirrors.
 //!
 //! Bindings: group 0 = [`RenderGlobals`] (camera matrices, eye, sky, sample index), group 1 =
 //! the pass's own resources. Everything is labelled `"PassName::thing"`.
@@ -69,7 +80,7 @@ use final_radiance::FinalRadiancePass;
 use mirror_trace::GpuMirrorScene;
 use position::PositionPass;
 use targets::Targets;
-use timing::GpuTimer;
+use timing::{FrameTimestamps, GpuTimer};
 use upload::GpuLightField;
 
 // Helpers of the pass modules, which reach them as `super::…`.
@@ -116,7 +127,8 @@ impl Pass {
     }
 }
 
-/// Labels of the GPU-timed passes, in [`Renderer::pass_times`] order.
+/// Labels of the GPU-timed passes, in [`Renderer::pass_times`] order (a frame of the window's
+/// final image skips some: see [`Renderer::render_to_view`]).
 pub const TIMED_PASSES: [&str; 6] = [
     "direction-ids",
     "barycentrics",
@@ -168,6 +180,22 @@ pub struct FrameData {
     /// Pass 4's uv (meaningful only where a face is seen).
     pub uv: Vec<[f32; 2]>,
     pub radiance: Vec<[f32; 4]>,
+}
+
+/// Which of the optional passes before pass 5 a frame runs (pass 3 always runs).
+#[derive(Clone, Copy, Debug)]
+struct GeometryPasses {
+    /// Passes 1 and 2 (direction ids and weights).
+    directions: bool,
+    /// Pass 4 (position and uv).
+    position: bool,
+}
+
+impl GeometryPasses {
+    const ALL: GeometryPasses = GeometryPasses {
+        directions: true,
+        position: true,
+    };
 }
 
 /// How the display maps a frame to its target (written into the per-frame globals).
@@ -347,9 +375,10 @@ impl Renderer {
     }
 
     /// Milliseconds per pass ([`TIMED_PASSES`] order) of a recent frame rendered with
-    /// [`Renderer::render_to_view`], once available. Five entries when the frame showed the
-    /// final image (display fused into pass 5), six with a debug view.
-    pub fn pass_times(&self) -> Option<&[f64]> {
+    /// [`Renderer::render_to_view`], once available; `None` for the passes that frame did not
+    /// run (the display with the final image, fused into pass 5, and the passes
+    /// [`Renderer::render_to_view`] skips for it).
+    pub fn pass_times(&self) -> Option<&[Option<f64>]> {
         self.timer.as_ref().and_then(|t| t.latest())
     }
 
@@ -419,32 +448,39 @@ impl Renderer {
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
     }
 
-    /// Encodes passes 1–4 (targets must exist). `timed`: write timestamps.
-    fn encode_geometry_passes(&self, encoder: &mut wgpu::CommandEncoder, timed: bool) {
+    /// Encodes pass 3 and, as `passes` says, passes 1–2 and 4 (targets must exist), with the
+    /// timestamps of `stamps`.
+    fn encode_geometry_passes(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        passes: GeometryPasses,
+        stamps: &mut FrameTimestamps<'_>,
+    ) {
         let frame = self.frame.as_ref().expect("ensure_frame before encoding");
-        let t = self.timer.as_ref().filter(|_| timed);
         let (g, lf, tg) = (&self.globals_bind_group, &self.light_field, &frame.targets);
-        self.direction_ids
-            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(0)));
-        self.barycentrics
-            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(1)));
-        self.face_id
-            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(2)));
-        self.position
-            .encode(encoder, g, tg, lf, t.map(|t| t.render_writes(3)));
+        if passes.directions {
+            self.direction_ids
+                .encode(encoder, g, tg, lf, stamps.writes(0));
+            self.barycentrics
+                .encode(encoder, g, tg, lf, stamps.writes(1));
+        }
+        self.face_id.encode(encoder, g, tg, lf, stamps.writes(2));
+        if passes.position {
+            self.position.encode(encoder, g, tg, lf, stamps.writes(3));
+        }
     }
 
-    /// Encodes the five passes, pass 5 into the radiance target only.
-    fn encode_passes(&self, encoder: &mut wgpu::CommandEncoder, timed: bool) {
-        self.encode_geometry_passes(encoder, timed);
+    /// Encodes the five passes, pass 5 into the radiance target only (no timestamps).
+    fn encode_passes(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut none = FrameTimestamps::new(None);
+        self.encode_geometry_passes(encoder, GeometryPasses::ALL, &mut none);
         let frame = self.frame.as_ref().expect("ensure_frame before encoding");
-        let t = self.timer.as_ref().filter(|_| timed);
         self.final_radiance.encode(
             encoder,
             &self.globals_bind_group,
             &frame.final_bind_group,
             &frame.targets,
-            t.map(|t| t.render_writes(4)),
+            None,
         );
     }
 
@@ -476,7 +512,7 @@ impl Renderer {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("Renderer::still_encoder"),
                 });
-            self.encode_passes(&mut encoder, false);
+            self.encode_passes(&mut encoder);
             ctx.queue.submit(Some(encoder.finish()));
         }
         Ok(())
@@ -594,9 +630,11 @@ impl Renderer {
     /// Encodes one interactive frame into `encoder`: the five passes (one sample at the pixel
     /// centres) and the selected debug view on `target` (`width × height`, format `format`),
     /// with `exposure` (a linear factor) and `tonemap` for the final image. For the final image
-    /// pass 5 writes `target` itself (fused display); debug views add the display pass. The
-    /// caller submits `encoder` (it may add e.g. a UI pass first) and then calls
-    /// [`Renderer::frame_submitted`].
+    /// pass 5 writes `target` itself (fused display) and interpolates pass 4's outputs itself
+    /// (fused position, [`final_radiance`]), so pass 4 does not run, nor do passes 1–2 when
+    /// the light field has no mirror or mixed faces (only their tiles read them); debug views
+    /// run every pass and add the display pass. The caller submits `encoder` (it may add e.g. a
+    /// UI pass first) and then calls [`Renderer::frame_submitted`].
     #[allow(clippy::too_many_arguments)]
     pub fn render_to_view(
         &mut self,
@@ -627,20 +665,30 @@ impl Renderer {
             Vec2::splat(0.5),
             &display,
         );
-        self.encode_geometry_passes(encoder, true);
+        let final_image = self.debug_view == Pass::FinalRadiance;
+        let passes = if final_image {
+            GeometryPasses {
+                directions: self.final_radiance.has_mirrors(),
+                position: false,
+            }
+        } else {
+            GeometryPasses::ALL
+        };
+        let mut stamps = FrameTimestamps::new(self.timer.as_ref());
+        self.encode_geometry_passes(encoder, passes, &mut stamps);
         let frame = self.frame.as_ref().expect("frame exists");
-        let timer = self.timer.as_ref();
         let g = &self.globals_bind_group;
-        if self.debug_view == Pass::FinalRadiance {
+        if final_image {
             self.final_radiance.encode_present(
                 &ctx.device,
                 encoder,
                 g,
                 &frame.final_bind_group,
                 &frame.targets,
+                &self.light_field,
                 target,
                 format,
-                timer.map(|t| t.render_writes(4)),
+                stamps.writes(4),
             );
         } else {
             self.final_radiance.encode(
@@ -648,7 +696,7 @@ impl Renderer {
                 g,
                 &frame.final_bind_group,
                 &frame.targets,
-                timer.map(|t| t.render_writes(4)),
+                stamps.writes(4),
             );
             self.display.encode(
                 &ctx.device,
@@ -657,17 +705,12 @@ impl Renderer {
                 &frame.display_bind_group,
                 target,
                 format,
-                timer.map(|t| t.render_writes(5)),
+                stamps.writes(5),
             );
         }
+        let timed = stamps.into_passes();
         if let Some(t) = self.timer.as_mut() {
-            // The fused path has no display pass: its queries stay unwritten and unread.
-            let timed = if self.debug_view == Pass::FinalRadiance {
-                5
-            } else {
-                6
-            };
-            t.resolve(encoder, timed);
+            t.resolve(encoder, &timed);
         }
         Ok(())
     }

@@ -1,7 +1,8 @@
 //! GPU pass times from timestamp queries (only where the device has `TIMESTAMP_QUERY`).
 //!
-//! Each frame writes a begin/end timestamp pair per pass. The results are copied to a readback
-//! buffer and mapped asynchronously, so reading them never stalls the frame: [`GpuTimer::latest`]
+//! Each frame writes a begin/end timestamp pair per pass it runs, in the order it encodes them
+//! ([`FrameTimestamps`]: a frame may skip passes). The results are copied to a readback buffer
+//! and mapped asynchronously, so reading them never stalls the frame: [`GpuTimer::latest`]
 //! returns the most recent completed frame's times, a frame or two late.
 
 use std::sync::Arc;
@@ -22,9 +23,39 @@ pub struct GpuTimer {
     passes: u32,
     period_ns: f64,
     state: Arc<AtomicU8>,
-    /// Passes timed in the frame whose results are being read back.
-    copied: u32,
-    latest: Option<Vec<f64>>,
+    /// The passes timed in the frame whose results are being read back, in query order.
+    copied: Vec<u32>,
+    latest: Option<Vec<Option<f64>>>,
+}
+
+/// The passes one frame times, in the order it encodes them: the `i`-th gets the timer's
+/// query pair `i`, so the queries written are always the first ones, whichever passes ran.
+pub struct FrameTimestamps<'a> {
+    timer: Option<&'a GpuTimer>,
+    passes: Vec<u32>,
+}
+
+impl<'a> FrameTimestamps<'a> {
+    /// Timestamps of `timer`'s (none without one).
+    pub fn new(timer: Option<&'a GpuTimer>) -> Self {
+        Self {
+            timer,
+            passes: Vec::new(),
+        }
+    }
+
+    /// The timestamp writes of the next pass encoded, pass `pass` of the timer's passes.
+    pub fn writes(&mut self, pass: u32) -> Option<wgpu::RenderPassTimestampWrites<'a>> {
+        let timer = self.timer?;
+        let slot = self.passes.len() as u32;
+        self.passes.push(pass);
+        Some(timer.render_writes(slot))
+    }
+
+    /// The passes timed, in query order (for [`GpuTimer::resolve`]).
+    pub fn into_passes(self) -> Vec<u32> {
+        self.passes
+    }
 }
 
 impl GpuTimer {
@@ -59,33 +90,32 @@ impl GpuTimer {
             passes,
             period_ns: f64::from(queue.get_timestamp_period()),
             state: Arc::new(AtomicU8::new(IDLE)),
-            copied: 0,
+            copied: Vec::new(),
             latest: None,
         })
     }
 
-    pub fn render_writes(&self, pass: u32) -> wgpu::RenderPassTimestampWrites<'_> {
+    fn render_writes(&self, slot: u32) -> wgpu::RenderPassTimestampWrites<'_> {
         wgpu::RenderPassTimestampWrites {
             query_set: &self.query_set,
-            beginning_of_pass_write_index: Some(2 * pass),
-            end_of_pass_write_index: Some(2 * pass + 1),
+            beginning_of_pass_write_index: Some(2 * slot),
+            end_of_pass_write_index: Some(2 * slot + 1),
         }
     }
 
-    /// Resolves the queries of this frame's first `passes` passes (each must have written both
-    /// timestamps) and copies them for readback when the readback buffer is free.
-    pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder, passes: u32) {
-        let passes = passes.min(self.passes);
-        encoder.resolve_query_set(&self.query_set, 0..passes * 2, &self.resolve, 0);
+    /// Resolves the queries of this frame's timed `passes` ([`FrameTimestamps::into_passes`]:
+    /// each wrote both timestamps of its query pair) and copies them for readback when the
+    /// readback buffer is free.
+    pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder, passes: &[u32]) {
+        let passes = &passes[..passes.len().min(self.passes as usize)];
+        if passes.is_empty() {
+            return;
+        }
+        let n = passes.len() as u32;
+        encoder.resolve_query_set(&self.query_set, 0..n * 2, &self.resolve, 0);
         if self.state.load(Ordering::Acquire) == IDLE {
-            encoder.copy_buffer_to_buffer(
-                &self.resolve,
-                0,
-                &self.readback,
-                0,
-                u64::from(passes) * 16,
-            );
-            self.copied = passes;
+            encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, u64::from(n) * 16);
+            self.copied = passes.to_vec();
             self.state.store(COPIED, Ordering::Release);
         }
     }
@@ -107,13 +137,12 @@ impl GpuTimer {
             MAPPED => {
                 if let Ok(view) = self.readback.slice(..).get_mapped_range() {
                     let ticks: &[u64] = bytemuck::cast_slice(&view);
-                    let ticks = &ticks[..(self.copied * 2) as usize];
-                    self.latest = Some(
-                        ticks
-                            .chunks_exact(2)
-                            .map(|p| p[1].saturating_sub(p[0]) as f64 * self.period_ns * 1e-6)
-                            .collect(),
-                    );
+                    let mut latest = vec![None; self.passes as usize];
+                    for (&pass, p) in self.copied.iter().zip(ticks.chunks_exact(2)) {
+                        latest[pass as usize] =
+                            Some(p[1].saturating_sub(p[0]) as f64 * self.period_ns * 1e-6);
+                    }
+                    self.latest = Some(latest);
                 }
                 self.readback.unmap();
                 self.state.store(IDLE, Ordering::Release);
@@ -123,8 +152,9 @@ impl GpuTimer {
         }
     }
 
-    /// Milliseconds per timed pass of the latest completed frame.
-    pub fn latest(&self) -> Option<&[f64]> {
+    /// Milliseconds per timed pass of the latest completed frame (`None` for a pass it did not
+    /// run).
+    pub fn latest(&self) -> Option<&[Option<f64>]> {
         self.latest.as_deref()
     }
 }
