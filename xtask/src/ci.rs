@@ -1,4 +1,5 @@
-//! `cargo xtask ci`: the whole test suite, exactly what `.ci/run` and the README run.
+//! `cargo xtask ci`: the whole test suite, exactly what `.ci/run` and the README run (the GPU
+//! timing script among its steps, with small sizes: `crate::gpu_timing`).
 //! `cargo xtask demo`: the main job on the bundled default scene.
 
 use anyhow::{Context, Result, bail};
@@ -31,7 +32,7 @@ pub fn cargo(root: &Path) -> Command {
 }
 
 /// `program` run in `root`, with the environment every step gets.
-fn command(program: impl AsRef<std::ffi::OsStr>, root: &Path) -> Command {
+pub fn command(program: impl AsRef<std::ffi::OsStr>, root: &Path) -> Command {
     let mut c = Command::new(program);
     c.current_dir(root);
     // A writable runtime dir silences winit/Mesa warnings under a bare root shell.
@@ -90,6 +91,8 @@ pub fn ci(root: &Path) -> Result<()> {
     let (passed, failed, ignored) = test_step(root)?;
     crate::assets::check(root)?;
     crate::validate::validate_gltf(root, &crate::assets::asset_files(&root.join("assets")))?;
+    eprintln!("==> gpu-timing --quick (the GPU timing script, small sizes)");
+    crate::gpu_timing::gpu_timing(root, &["--quick".into()])?;
     let t_browser = Instant::now();
     eprintln!("==> browser (glTF export in headless chromium)");
     crate::browser::browser(root)?;

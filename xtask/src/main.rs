@@ -5,6 +5,7 @@ mod assets;
 mod browser;
 mod chart;
 mod ci;
+mod gpu_timing;
 mod lengths;
 mod modgraph;
 mod validate;
@@ -17,11 +18,14 @@ const USAGE: &str = "usage: cargo xtask <task>
 
 tasks:
   ci            the whole test suite: rustfmt, module layers, clippy, all tests, asset checks,
-                the browser check (what .ci/run runs)
+                gpu-timing --quick, the browser check (what .ci/run runs)
   browser       the glTF export (vlf-bake export) validated and rendered in headless chromium,
                 compared with vlf-view's still (needs node/npm and chromium)
   demo          the main job on the bundled Cornell box
   bench [--quick]  bake benchmarks (release build) → docs/bench/bake.csv
+  gpu-timing [--quick] [--frames N] [--size WxH] [--scene SCENE]  the Cornell box baked on the
+                GPU and CPU paths and its walkthrough benchmarked (release build), with the
+                adapter's name and driver: the figures to take when a GPU is lent
   chart [--quick] [--redraw] [SCENE...]  speed against accuracy on the shared scenes: references,
                 `vlf-bake sweep`, SVG charts and summary → docs/bench/chart/
   assets        regenerate the Cornell box scenes under assets/
@@ -69,6 +73,9 @@ fn main() -> Result<()> {
         Some("browser") => browser::browser(&root)?,
         Some("demo") => ci::demo(&root)?,
         Some("bench") => ci::bench(&root, std::env::args().any(|a| a == "--quick"))?,
+        Some("gpu-timing") => {
+            gpu_timing::gpu_timing(&root, &std::env::args().skip(2).collect::<Vec<_>>())?
+        }
         Some("chart") => chart::chart(&root, &std::env::args().skip(2).collect::<Vec<_>>())?,
         Some("-h" | "--help" | "help") => println!("{USAGE}"),
         _ => bail!("{USAGE}"),
