@@ -96,6 +96,21 @@ pub struct Lookup {
     pub triangle: u32,
 }
 
+/// The icosahedron tables of [`DirectionSet::lookup`] in f32 ([`DirectionSet::lookup_tables`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LookupTables {
+    /// Frequency `k`.
+    pub k: u32,
+    /// Unit outward normal of each icosahedron face.
+    pub face_normals: [Vec3; 20],
+    /// `c_j × c_k` for the cyclic corner triples of each face: `d · edge_normals[f][n]` is
+    /// proportional to the flat-face barycentric of corner `n`.
+    pub edge_normals: [[Vec3; 3]; 20],
+    /// For each sign octant (bit 0: x < 0, bit 1: y < 0, bit 2: z < 0) the four faces that can
+    /// contain a direction of that octant.
+    pub octant_faces: [[u32; 4]; 8],
+}
+
 /// The set of `l` bi-directional VLF directions and the spherical triangle
 /// mesh over their `2l` senses `±ω_i`. See the module docs for the layout.
 ///
@@ -273,6 +288,18 @@ impl DirectionSet {
             "sphere vertex {v} out of range"
         );
         self.solid_angles[(v % self.l) as usize]
+    }
+
+    /// The icosahedron tables [`lookup`](Self::lookup) uses, in f32, for the same lookup on
+    /// the GPU (`shaders/common/directions.wgsl`, with [`sphere_vertices`](Self::sphere_vertices)
+    /// and [`sphere_triangles`](Self::sphere_triangles)).
+    pub fn lookup_tables(&self) -> LookupTables {
+        LookupTables {
+            k: self.k,
+            face_normals: self.faces.map(|f| f.normal.as_vec3()),
+            edge_normals: self.faces.map(|f| f.edge_normals.map(|e| e.as_vec3())),
+            octant_faces: self.octant_faces.map(|o| o.map(u32::from)),
+        }
     }
 
     /// Finds the spherical triangle containing direction `d` (any length) and

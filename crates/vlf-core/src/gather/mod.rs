@@ -27,10 +27,10 @@ use crate::directions::DirectionSet;
 use crate::lightfield::{GatherParams, ParamsError, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
-use crate::pathtrace::{Hit, PreparedScene, Ray};
+use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::scene::Scene;
 use field::{Field, Tiles, chart_bilinear};
-use points::{Charts, Openness, TexelPoints};
+pub use points::{Charts, Openness, TexelPoints};
 
 /// The propagated light field the gather reads.
 pub struct Converged<'a> {
@@ -85,10 +85,11 @@ impl GatherStats {
 
 /// Texels handed to a worker at a time.
 const CHUNK: usize = 64;
-/// Stream selectors of the per-texel random generators.
-const STREAM_INDIRECT: u32 = 1;
-const STREAM_DIRECT: u32 = 2;
-const SEED: u32 = 0x6a7e_5eed;
+/// Stream selectors of the per-texel random generators (`Rng::for_path(SEED, texel, stream)`;
+/// the GPU gather uses the same).
+pub const STREAM_INDIRECT: u32 = 1;
+pub const STREAM_DIRECT: u32 = 2;
+pub const SEED: u32 = 0x6a7e_5eed;
 
 struct Gatherer<'a> {
     ps: PreparedScene<'a>,
@@ -243,8 +244,14 @@ struct Strata {
     order: Vec<u32>,
 }
 
+/// Side g of the g × g strata that hold `count` samples: ⌈√count⌉ (1 for none), computed as
+/// the CPU does it (the GPU gather is handed these values rather than taking its own root).
+pub fn strata_side(count: u32) -> u32 {
+    (count.max(1) as f32).sqrt().ceil() as u32
+}
+
 fn shuffled_strata(count: u32, rng: &mut Rng) -> Strata {
-    let g = (count.max(1) as f32).sqrt().ceil() as u32;
+    let g = strata_side(count);
     let mut order: Vec<u32> = (0..g * g).collect();
     for i in (1..order.len()).rev() {
         let j = (rng.next_u32() as usize) % (i + 1);
@@ -274,6 +281,75 @@ fn power(atlas: &BakeScene, irradiance: &[[f32; 4]]) -> f64 {
         .sum()
 }
 
+/// One grid of a gather (the indirect grid or the stored atlas): its atlas, the face of every
+/// texel and the faces' charts.
+pub struct Grid {
+    pub atlas: BakeScene,
+    /// Face of every texel.
+    pub tex_face: Vec<u32>,
+    pub charts: Charts,
+    /// Texel edge (VLF units).
+    pub texel_size: f32,
+}
+
+impl Grid {
+    fn new(scene: &Scene, texel_size: f32) -> Result<Grid, ParamsError> {
+        let atlas = BakeScene::with_texel_size(scene, texel_size)?;
+        Ok(Grid {
+            tex_face: texel_faces(&atlas),
+            charts: Charts::new(scene, &atlas),
+            atlas,
+            texel_size,
+        })
+    }
+
+    /// Probes along the normal that hit anything closer than this close a sample point
+    /// (world units): half a texel, the gap the atlas cannot resolve.
+    pub fn r_close(&self, scene: &Scene) -> f32 {
+        self.texel_size / scene.to_vlf.scale
+    }
+
+    /// The sample points of this grid's texels in the scene whose BVH is `bvh`.
+    pub fn points<'a>(&'a self, scene: &Scene, bvh: &'a Bvh) -> TexelPoints<'a> {
+        TexelPoints {
+            atlas: &self.atlas,
+            charts: &self.charts,
+            open: Openness {
+                bvh,
+                r_close: self.r_close(scene),
+            },
+            xf: scene.to_vlf,
+            tex_face: &self.tex_face,
+        }
+    }
+}
+
+/// The two grids of a gather: indirect light is estimated per texel of `indirect`, direct light
+/// per texel of `direct` (the stored atlas), then [`assemble`] combines them. The CPU gather
+/// ([`final_gather`]) and the GPU gather (`vlf_gpu::gather`) share everything but the texel
+/// estimators.
+pub struct Grids {
+    pub indirect: Grid,
+    pub direct: Grid,
+}
+
+impl Grids {
+    pub fn new(scene: &Scene, field: &Converged, gp: &GatherParams) -> Result<Grids, ParamsError> {
+        Ok(Grids {
+            indirect: Grid::new(scene, gp.indirect_texel_scale * field.ray_spacing)?,
+            direct: Grid::new(scene, gp.texel_scale * field.ray_spacing)?,
+        })
+    }
+}
+
+/// The propagation's irradiance dilated for bilinear reads: what a gather ray reads at its
+/// first hit (with the hit point's albedo).
+pub fn dilated_irradiance(field: &Converged) -> Vec<[f32; 4]> {
+    let mut e = field.irradiance.to_vec();
+    crate::bake::dilate(field.prep, &mut e);
+    e
+}
+
 /// Runs the final gather over `field` on `threads` workers (0 = all cores).
 pub fn final_gather(
     scene: &Scene,
@@ -294,63 +370,58 @@ pub fn final_gather(
         ),
         sky: field.sky,
     };
-    let xf = scene.to_vlf;
-
-    // Indirect light on the coarser grid.
-    let texel_size = gp.texel_scale * field.ray_spacing;
-    let indirect_texel_size = gp.indirect_texel_scale * field.ray_spacing;
-    let coarse = BakeScene::with_texel_size(scene, indirect_texel_size)?;
-    let coarse_faces = texel_faces(&coarse);
-    let coarse_charts = Charts::new(scene, &coarse);
-    let open_coarse = Openness {
-        bvh: &g.ps.bvh,
-        r_close: indirect_texel_size / xf.scale,
-    };
-    let coarse_pts = TexelPoints {
-        atlas: &coarse,
-        charts: &coarse_charts,
-        open: &open_coarse,
-        xf,
-        tex_face: &coarse_faces,
-    };
-    let ind: Vec<Option<Vec3>> = crate::par::map(coarse.texel_count(), threads, CHUNK, |t| {
-        g.indirect(&coarse_pts, t, gp.indirect_rays)
+    let grids = Grids::new(scene, field, gp)?;
+    let pts = grids.indirect.points(scene, &g.ps.bvh);
+    let ind = crate::par::map(grids.indirect.atlas.texel_count(), threads, CHUNK, |t| {
+        g.indirect(&pts, t, gp.indirect_rays)
     });
-    let filled: Vec<bool> = ind.iter().map(Option::is_some).collect();
-    let mut e_ind: Vec<[f32; 4]> = ind
+    let pts = grids.direct.points(scene, &g.ps.bvh);
+    let dir = crate::par::map(grids.direct.atlas.texel_count(), threads, CHUNK, |t| {
+        g.direct(&pts, t, gp)
+    });
+    Ok(assemble(field, grids, &ind, &dir))
+}
+
+/// The gathered atlas from the texel estimates: `indirect` per texel of the indirect grid,
+/// `direct` per texel of the stored atlas (`None`: no open point). The indirect grid is
+/// dilated over its texels without a value and read bilinearly at each stored texel's centre;
+/// the sum is dilated over the stored atlas' texels without a value.
+pub fn assemble(
+    field: &Converged,
+    grids: Grids,
+    indirect: &[Option<Vec3>],
+    direct: &[Option<Vec3>],
+) -> Gathered {
+    let Grids {
+        indirect: coarse,
+        direct: Grid {
+            atlas, tex_face, ..
+        },
+    } = grids;
+    let coarse = coarse.atlas;
+    let filled: Vec<bool> = indirect.iter().map(Option::is_some).collect();
+    let mut e_ind: Vec<[f32; 4]> = indirect
         .iter()
         .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
         .collect();
     crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
-
-    // Direct light on the stored atlas, plus the indirect grid read at each texel.
-    let atlas = BakeScene::with_texel_size(scene, texel_size)?;
-    let faces = texel_faces(&atlas);
-    let charts = Charts::new(scene, &atlas);
-    let open = Openness {
-        bvh: &g.ps.bvh,
-        r_close: texel_size / xf.scale,
-    };
-    let pts = TexelPoints {
-        atlas: &atlas,
-        charts: &charts,
-        open: &open,
-        xf,
-        tex_face: &faces,
-    };
-    let dir: Vec<Option<(Vec3, Vec3)>> =
-        crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
-            let direct = g.direct(&pts, t, gp)?;
-            let fi = faces[t] as usize;
+    // Direct light plus the indirect grid read at each texel.
+    let dir: Vec<Option<(Vec3, Vec3)>> = direct
+        .iter()
+        .enumerate()
+        .map(|(t, d)| {
+            let direct = (*d)?;
+            let fi = tex_face[t] as usize;
             let side = (t as u32 - atlas.faces[fi].texel_base) / atlas.faces[fi].texels_per_side();
             let p = Vec4::from(atlas.texel_center[t]).truncate();
             Some((direct, chart_bilinear(&coarse.faces[fi], &e_ind, side, p)))
-        });
+        })
+        .collect();
     let mut stats = GatherStats {
         texels: atlas.texel_count(),
         covered_texels: atlas.texel_area.iter().filter(|a| **a > 0.0).count(),
         indirect_texels: coarse.texel_count(),
-        propagated_power: power(prep, field.irradiance),
+        propagated_power: power(field.prep, field.irradiance),
         ..Default::default()
     };
     let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
@@ -364,9 +435,9 @@ pub fn final_gather(
     stats.indirect_power = power(&atlas, &split(|d| d.1));
     let mut irradiance = split(|d| d.0 + d.1);
     crate::bake::dilate_where(&atlas, &mut irradiance, &filled);
-    Ok(Gathered {
+    Gathered {
         atlas,
         irradiance,
         stats,
-    })
+    }
 }

@@ -42,6 +42,11 @@ impl Charts {
         Self { tris }
     }
 
+    /// The chart-space triangles of `face` (what the GPU gather uploads).
+    pub fn triangles(&self, face: usize) -> &[[Vec2; 3]] {
+        &self.tris[face]
+    }
+
     /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
     pub fn inside(&self, face: usize, c: Vec2) -> bool {
         self.tris[face].iter().any(|q| {
@@ -88,15 +93,15 @@ impl Openness<'_> {
 pub struct TexelPoints<'a> {
     pub atlas: &'a BakeScene,
     pub charts: &'a Charts,
-    pub open: &'a Openness<'a>,
+    pub open: Openness<'a>,
     pub xf: Similarity,
     /// Face of every texel.
     pub tex_face: &'a [u32],
 }
 
 /// Draws per point: first inside the point's stratum, then anywhere in the texel.
-const DRAWS_IN_STRATUM: u32 = 4;
-const DRAWS_IN_TEXEL: u32 = 4;
+pub const DRAWS_IN_STRATUM: u32 = 4;
+pub const DRAWS_IN_TEXEL: u32 = 4;
 
 impl TexelPoints<'_> {
     /// Face, side and chart texel of atlas texel `t`.
