@@ -10,8 +10,9 @@
 // and its NEE contribution at the path's own index (no compaction, tmax < 0 = no shadow ray).
 // Radiance is summed per path slot in `accum` (one path per slot at a time: no atomics needed).
 
-#import "common/bvh.wgsl"
-#import "common/hash.wgsl"
+#import "common/rt_scene.wgsl"
+#import "common/random.wgsl"
+#import "common/sampling.wgsl"
 
 // Per-render globals (mirrors vlf_gpu::layout::RtGlobals). Blob offsets are in vec4 units.
 struct RtGlobals {
@@ -19,7 +20,7 @@ struct RtGlobals {
     cam_pos: vec4<f32>,
     // xyz forward, w = aspect (width / height)
     cam_forward: vec4<f32>,
-    // xyz right, w = probability of sampling an emitter rather than a sun
+    // xyz right
     cam_right: vec4<f32>,
     // xyz up
     cam_up: vec4<f32>,
@@ -33,18 +34,10 @@ struct RtGlobals {
     path_count: u32,
     tiles_x: u32,
     max_groups: u32,
-    mat_base: u32,
-    emitter_base: u32,
-    emitter_count: u32,
-    sun_base: u32,
-    sun_count: u32,
-    tex_base: u32,
     spp: u32,
     rr_depth: u32,
     tile_base: u32,
     tile_count: u32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
 // Path state (mirrors vlf_gpu::layout::RtPath). In region S: throughput = NEE contribution.
@@ -61,9 +54,7 @@ struct RtPath {
 @group(0) @binding(0) var<uniform> g: RtGlobals;
 @group(0) @binding(1) var<uniform> batch: RtBatch;
 
-// Group 1 bindings 0, 1 (nodes, triangles): see common/bvh.wgsl.
-// Shading data, materials, emitters, suns, texture headers and texels (see raytrace/scene.rs).
-@group(1) @binding(2) var<storage, read> blob: array<vec4<f32>>;
+// Group 1 (nodes, triangles, shading data, scene info): see common/rt_scene.wgsl.
 
 @group(2) @binding(0) var<storage, read_write> rays: array<Ray>;
 @group(2) @binding(1) var<storage, read> hits: array<Hit>;
@@ -80,81 +71,11 @@ struct RtPath {
 // Shadow rays counted by one workgroup of `resolve`.
 var<workgroup> wg_shadow: atomic<u32>;
 
-const PI: f32 = 3.14159265358979;
-const INV_PI: f32 = 0.318309886183791;
-const TAU: f32 = 6.28318530717959;
-const FAR: f32 = 3.4028235e38;
 const RR_MAX_SURVIVAL: f32 = 0.95;
 
-// ---------------------------------------------------------------------------------------------
-// Random numbers (mirrors vlf_core::pathtrace::sampling::Rng).
-
-fn rng_next(p: ptr<function, RtPath>) -> u32 {
-    let old = (*p).rng_state;
-    (*p).rng_state = old * 747796405u + (*p).rng_inc;
-    let word = ((old >> ((old >> 28u) + 4u)) ^ old) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
-fn rng_f32(p: ptr<function, RtPath>) -> f32 {
-    return f32(rng_next(p) >> 8u) * (1.0 / 16777216.0);
-}
-
-fn rng_2d(p: ptr<function, RtPath>) -> vec2<f32> {
-    let x = rng_f32(p);
-    return vec2<f32>(x, rng_f32(p));
-}
-
-// A new path for (pixel, sample) with the stream of Rng::for_path.
-fn path_init(pixel: u32, sample: u32, slot: u32) -> RtPath {
-    let a = pcg_hash(g.seed ^ 0x9e3779b9u);
-    let b = pcg_hash(a ^ sample);
-    let state = pcg_hash(b ^ (pixel * 0x85ebca6bu));
-    let inc = (pcg_hash(state ^ 0x68e31da4u) << 1u) | 1u;
-    var p = RtPath(vec3<f32>(1.0), slot, state, inc, 0u, -1.0);
-    rng_next(&p);
-    return p;
-}
 
 // ---------------------------------------------------------------------------------------------
-// Sampling (mirrors vlf_core::pathtrace::sampling).
-
-fn basis_t(n: vec3<f32>) -> vec3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    return vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-}
-
-fn basis_b(n: vec3<f32>) -> vec3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    return vec3<f32>(b, sign + n.y * n.y * a, -n.y);
-}
-
-fn to_world(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    return basis_t(n) * v.x + basis_b(n) * v.y + n * v.z;
-}
-
-fn to_local(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(dot(v, basis_t(n)), dot(v, basis_b(n)), dot(v, n));
-}
-
-fn cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
-    let r = sqrt(u.x);
-    let phi = TAU * u.y;
-    return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
-}
-
-fn power_heuristic(a: f32, b: f32) -> f32 {
-    let a2 = a * a;
-    let b2 = b * b;
-    if a2 + b2 > 0.0 {
-        return a2 / (a2 + b2);
-    }
-    return 0.0;
-}
+// GGX sampling (mirrors vlf_core::pathtrace::sampling; the rest is in common/sampling.wgsl).
 
 fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
@@ -186,79 +107,6 @@ fn ggx_sample_vndf(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
 
 fn reflect_about(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return 2.0 * dot(v, n) * n - v;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Scene data in the blob.
-
-struct Material {
-    base_color: vec3<f32>,
-    base_texture: u32,
-    emission: vec3<f32>,
-    emissive_texture: u32,
-    w_diffuse: f32,
-    alpha: f32,
-}
-
-fn material(index: u32) -> Material {
-    let o = g.mat_base + 3u * index;
-    let a = blob[o];
-    let b = blob[o + 1u];
-    let c = blob[o + 2u];
-    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y);
-}
-
-fn tri_uv(tri: u32, b1: f32, b2: f32) -> vec2<f32> {
-    let a = blob[2u * tri];
-    let b = blob[2u * tri + 1u];
-    return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
-}
-
-fn wrap(mode: u32, i: i32, size: u32) -> u32 {
-    let n = i32(max(size, 1u));
-    if mode == 1u {
-        return u32(clamp(i, 0, n - 1));
-    }
-    if mode == 2u {
-        let m = ((i % (2 * n)) + 2 * n) % (2 * n);
-        if m < n {
-            return u32(m);
-        }
-        return u32(2 * n - 1 - m);
-    }
-    return u32(((i % n) + n) % n);
-}
-
-fn texel(offset: u32, w: u32, h: u32, modes: u32, i: i32, j: i32) -> vec3<f32> {
-    let x = wrap(modes & 15u, i, w);
-    let y = wrap(modes >> 4u, j, h);
-    return blob[offset + y * w + x].xyz;
-}
-
-// Bilinear sample with wrap modes (mirrors vlf_core::bake::prep::sample); NONE reads 1.
-fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
-    if t == NONE {
-        return vec3<f32>(1.0);
-    }
-    let hd = blob[g.tex_base + t];
-    let offset = bitcast<u32>(hd.x);
-    let w = bitcast<u32>(hd.y);
-    let h = bitcast<u32>(hd.z);
-    let modes = bitcast<u32>(hd.w);
-    if w == 0u || h == 0u {
-        return vec3<f32>(1.0);
-    }
-    let x = clamp(uv.x * f32(w) - 0.5, -1e9, 1e9);
-    let y = clamp(uv.y * f32(h) - 0.5, -1e9, 1e9);
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let fx = x - x0;
-    let fy = y - y0;
-    let i = i32(x0);
-    let j = i32(y0);
-    let top = mix(texel(offset, w, h, modes, i, j), texel(offset, w, h, modes, i + 1, j), fx);
-    let bottom = mix(texel(offset, w, h, modes, i, j + 1), texel(offset, w, h, modes, i + 1, j + 1), fx);
-    return mix(top, bottom, fy);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -315,46 +163,6 @@ fn bsdf_sample(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, u_lob
 }
 
 // ---------------------------------------------------------------------------------------------
-// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; sun:
-// [to_sun, pdf], [irradiance, cdf].
-
-fn pick_emitter(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = g.emitter_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if blob[g.emitter_base + mid].w > u {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    return lo;
-}
-
-fn pick_sun(u: f32) -> u32 {
-    for (var i = 0u; i < g.sun_count; i++) {
-        if blob[g.sun_base + 2u * i + 1u].w > u {
-            return i;
-        }
-    }
-    return g.sun_count - 1u;
-}
-
-fn emitter_pdf(light: u32, dist: f32, cos_light: f32) -> f32 {
-    if light == NONE || light >= g.emitter_count || cos_light <= 0.0 {
-        return 0.0;
-    }
-    let e = blob[g.emitter_base + light];
-    return g.cam_right.w * e.z * dist * dist / (e.y * cos_light);
-}
-
-fn emission_at(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
-    let m = material(triangles[tri].material);
-    return m.emission * sample_texture(m.emissive_texture, tri_uv(tri, b1, b2));
-}
-
-// ---------------------------------------------------------------------------------------------
 // One path vertex, shared by the wavefront `shade` kernel and the megakernel.
 
 struct Vertex {
@@ -371,7 +179,16 @@ fn no_ray() -> Ray {
     return Ray(vec3<f32>(0.0), 0.0, vec3<f32>(0.0, 0.0, 1.0), -1.0);
 }
 
+// Shades the vertex `hit` of path `p` (its random stream kept in the path state).
 fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
+    var r = Rng((*p).rng_state, (*p).rng_inc);
+    let v = shade_with(p, &r, ray, hit);
+    (*p).rng_state = r.state;
+    (*p).rng_inc = r.inc;
+    return v;
+}
+
+fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hit) -> Vertex {
     var out = Vertex(vec3<f32>(0.0), no_ray(), vec3<f32>(0.0), no_ray());
     let beta = (*p).throughput;
     if hit.tri == NONE {
@@ -399,16 +216,16 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
     let color = m.base_color * sample_texture(m.base_texture, uv);
     let origin = offset_origin(pos, n);
     // Next-event estimation: one light sample.
-    let u_class = rng_f32(p);
-    let u_light = rng_f32(p);
-    let u_point = rng_2d(p);
+    let u_class = rng_f32(r);
+    let u_light = rng_f32(r);
+    let u_point = rng_2d(r);
     if m.w_diffuse > 0.0 || m.alpha > 0.0 {
-        if u_class < g.cam_right.w {
-            let e = blob[g.emitter_base + pick_emitter(u_light)];
+        if u_class < scene_info.p_emitters {
+            let e = blob[scene_info.emitter_base + pick_emitter(u_light)];
             let lt = triangles[bitcast<u32>(e.x)];
-            let su = sqrt(u_point.x);
-            let b1 = 1.0 - su;
-            let b2 = u_point.y * su;
+            let bary = triangle_barycentrics(u_point);
+            let b1 = bary.x;
+            let b2 = bary.y;
             let x = lt.p0 * (1.0 - b1 - b2) + lt.p1 * b1 + lt.p2 * b2;
             let nl = normalize(cross(lt.p1 - lt.p0, lt.p2 - lt.p0));
             let to = x - pos;
@@ -418,7 +235,7 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
             let cos_s = dot(n, wi);
             if cos_l > 0.0 && cos_s > 0.0 {
                 let f = bsdf_eval(m, color, n, wo, wi);
-                let pdf_light = g.cam_right.w * e.z * dist2 / (e.y * cos_l);
+                let pdf_light = scene_info.p_emitters * e.z * dist2 / (e.y * cos_l);
                 let le = emission_at(bitcast<u32>(e.x), b1, b2);
                 let contrib = beta * f.xyz * le * (cos_s * power_heuristic(pdf_light, f.w) / pdf_light);
                 if any(contrib > vec3<f32>(0.0)) {
@@ -427,15 +244,15 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
                     out.shadow_contrib = contrib;
                 }
             }
-        } else if g.sun_count > 0u {
+        } else if scene_info.sun_count > 0u {
             let si = pick_sun(u_light);
-            let a = blob[g.sun_base + 2u * si];
-            let b = blob[g.sun_base + 2u * si + 1u];
+            let a = blob[scene_info.sun_base + 2u * si];
+            let b = blob[scene_info.sun_base + 2u * si + 1u];
             let wi = a.xyz;
             let cos_i = dot(n, wi);
             if cos_i > 0.0 {
                 let f = bsdf_eval(m, color, n, wo, wi);
-                let contrib = beta * f.xyz * b.xyz * (cos_i / ((1.0 - g.cam_right.w) * a.w));
+                let contrib = beta * f.xyz * b.xyz * (cos_i / ((1.0 - scene_info.p_emitters) * a.w));
                 if any(contrib > vec3<f32>(0.0)) {
                     out.shadow = Ray(origin, 0.0, wi, FAR);
                     out.shadow_contrib = contrib;
@@ -444,8 +261,8 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
         }
     }
     // Continue the path.
-    let u_lobe = rng_f32(p);
-    let u_dir = rng_2d(p);
+    let u_lobe = rng_f32(r);
+    let u_dir = rng_2d(r);
     let s = bsdf_sample(m, color, n, wo, u_lobe, u_dir);
     if s.pdf == 0.0 {
         return out;
@@ -453,7 +270,7 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
     var nb = beta * s.weight;
     if (*p).depth >= g.rr_depth {
         let q = min(max(max(nb.x, nb.y), nb.z), RR_MAX_SURVIVAL);
-        if rng_f32(p) >= q {
+        if rng_f32(r) >= q {
             return out;
         }
         nb = nb / q;
@@ -484,15 +301,15 @@ fn camera_path(slot: u32, ray: ptr<function, Ray>) -> RtPath {
         *ray = no_ray();
         return RtPath(vec3<f32>(0.0), NONE, 0u, 1u, 0u, -1.0);
     }
-    var p = path_init(py * g.width + px, g.sample_base + j, slot);
-    let jit = rng_2d(&p);
+    var r = rng_for_path(g.seed, py * g.width + px, g.sample_base + j);
+    let jit = rng_2d(&r);
     let fx = (f32(px) + jit.x) / f32(g.width);
     let fy = (f32(py) + jit.y) / f32(g.height);
     let sx = (2.0 * fx - 1.0) * g.cam_pos.w * g.cam_forward.w;
     let sy = (1.0 - 2.0 * fy) * g.cam_pos.w;
     let dir = normalize(g.cam_forward.xyz + g.cam_right.xyz * sx + g.cam_up.xyz * sy);
     *ray = Ray(g.cam_pos.xyz, 0.0, dir, FAR);
-    return p;
+    return RtPath(vec3<f32>(1.0), slot, r.state, r.inc, 0u, -1.0);
 }
 
 fn add_radiance(slot: u32, l: vec3<f32>) {

@@ -4,6 +4,9 @@
 // "No triangle" / "no path" (vlf_core::pathtrace::NONE).
 const NONE: u32 = 0xffffffffu;
 
+// The largest finite f32: the tmax of rays without an end (portable where infinity is not).
+const FAR: f32 = 3.4028235e38;
+
 // A ray origin + t dir, t in (tmin, tmax) (mirrors vlf_core::pathtrace::Ray). tmax < tmin marks
 // an inactive slot; "infinite" rays use the largest finite f32.
 struct Ray {

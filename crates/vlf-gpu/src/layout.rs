@@ -154,7 +154,7 @@ pub struct RtGlobals {
     pub cam_pos: [f32; 4],
     /// Unit forward; w = aspect (width / height).
     pub cam_forward: [f32; 4],
-    /// Unit right; w = probability of sampling an emitter rather than a sun.
+    /// Unit right; w unused.
     pub cam_right: [f32; 4],
     /// Unit up; w unused.
     pub cam_up: [f32; 4],
@@ -172,12 +172,6 @@ pub struct RtGlobals {
     pub tiles_x: u32,
     /// Largest workgroup count per dispatch dimension.
     pub max_groups: u32,
-    pub mat_base: u32,
-    pub emitter_base: u32,
-    pub emitter_count: u32,
-    pub sun_base: u32,
-    pub sun_count: u32,
-    pub tex_base: u32,
     /// Total samples per pixel (the divisor of `finish`).
     pub spp: u32,
     /// Russian roulette starts when a path has this many bounces.
@@ -186,8 +180,23 @@ pub struct RtGlobals {
     pub tile_base: u32,
     /// Tiles in this chunk.
     pub tile_count: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+}
+
+/// Where the sections of the ray-tracing scene's shading data start (`vec4` units, see
+/// `crate::raytrace::scene`) and the light list's counts (`shaders/common/rt_scene.wgsl`,
+/// group 1 binding 3 of the path tracer and the final gather).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RtSceneInfo {
+    pub mat_base: u32,
+    pub emitter_base: u32,
+    pub emitter_count: u32,
+    pub sun_base: u32,
+    pub sun_count: u32,
+    pub tex_base: u32,
+    /// Probability of sampling an emitter rather than a sun.
+    pub p_emitters: f32,
+    pub _pad: u32,
 }
 
 /// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
@@ -336,9 +345,11 @@ pub fn registry() -> Vec<SharedStruct> {
         shared!(RtTriangle in "common/bvh.wgsl" { p0, material, p1, prim, p2, light }),
         shared!(RtGlobals in "raytrace_path.wgsl" {
             cam_pos, cam_forward, cam_right, cam_up, sky, width, height, seed, sample_base,
-            samples_per_wave, path_count, tiles_x, max_groups, mat_base, emitter_base,
-            emitter_count, sun_base, sun_count, tex_base, spp, rr_depth, tile_base, tile_count,
-            _pad0, _pad1,
+            samples_per_wave, path_count, tiles_x, max_groups, spp, rr_depth, tile_base,
+            tile_count,
+        }),
+        shared!(RtSceneInfo in "common/rt_scene.wgsl" {
+            mat_base, emitter_base, emitter_count, sun_base, sun_count, tex_base, p_emitters, _pad,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

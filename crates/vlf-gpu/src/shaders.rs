@@ -70,6 +70,12 @@ pub static COMMON_RAYS: Shader = shader!("common/rays.wgsl");
 pub static COMMON_BVH: Shader = shader!("common/bvh.wgsl");
 /// Texture wrap modes and the bilinear footprint (path tracer, pass 5).
 pub static COMMON_TEXTURE: Shader = shader!("common/texture.wgsl");
+/// Per-path random streams (`Rng`).
+pub static COMMON_RANDOM: Shader = shader!("common/random.wgsl");
+/// Sampling routines (cosine hemisphere, bases, barycentrics, MIS weights).
+pub static COMMON_SAMPLING: Shader = shader!("common/sampling.wgsl");
+/// The ray-tracing scene's shading data: materials, texture coordinates, textures, lights.
+pub static COMMON_RT_SCENE: Shader = shader!("common/rt_scene.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -98,6 +104,9 @@ pub static ALL: &[&Shader] = &[
     &COMMON_RAYS,
     &COMMON_BVH,
     &COMMON_TEXTURE,
+    &COMMON_RANDOM,
+    &COMMON_SAMPLING,
+    &COMMON_RT_SCENE,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

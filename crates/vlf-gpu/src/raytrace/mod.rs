@@ -122,6 +122,8 @@ pub struct GpuScene {
     pub triangles: wgpu::Buffer,
     /// Shading data (`array<vec4<f32>>`, see [`scene`]).
     pub blob: wgpu::Buffer,
+    /// Where the blob's sections start (uniform [`crate::layout::RtSceneInfo`]).
+    pub info: wgpu::Buffer,
     /// Section offsets of the blob (its `blob` vector is emptied after upload).
     pub packed: PackedScene,
     /// Number of triangles.
@@ -135,11 +137,17 @@ impl GpuScene {
         let bvh = GpuBvh::upload(device, "RayScene", &prep.bvh)?;
         check_binding(device, "shading data and textures", packed.blob.len() * 16)?;
         let blob = storage_init(device, "RayScene::blob", bytemuck::cast_slice(&packed.blob));
+        let info = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("RayScene::info"),
+            contents: bytemuck::bytes_of(&packed.info()),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
         packed.blob = Vec::new();
         Ok(Self {
             nodes: bvh.nodes,
             triangles: bvh.triangles,
             blob,
+            info,
             packed,
             triangle_count: prep.bvh.triangles.len() as u32,
         })

@@ -11,8 +11,9 @@
 //! random stream of `vlf_core::pathtrace::Rng::for_path`, exactly like the CPU tracer.
 //!
 //! Bind groups of the path kernels: 0 = [`RtGlobals`] + [`RtBatch`] (dynamic offset), 1 = scene
-//! (nodes, triangles, blob), 2 = wave buffers (rays, hits, paths, queues, accumulators),
-//! 3 = control (queues, indirect arguments, finished image chunk).
+//! (nodes, triangles, blob, [`RtSceneInfo`]: `shaders/common/rt_scene.wgsl`), 2 = wave buffers
+//! (rays, hits, paths, queues, accumulators), 3 = control (queues, indirect arguments, finished
+//! image chunk).
 
 use std::time::Instant;
 
@@ -21,7 +22,7 @@ use wgpu::util::DeviceExt;
 use super::engine::{Query, RayEngine, WORKGROUP};
 use super::{GpuScene, RaytraceError, storage_entry, uniform_entry};
 use crate::GpuContext;
-use crate::layout::{RtBatch, RtGlobals, RtPath, RtQueue};
+use crate::layout::{RtBatch, RtGlobals, RtPath, RtQueue, RtSceneInfo};
 use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
 use crate::shaders;
@@ -125,6 +126,7 @@ impl GpuPathTracer {
                 storage_entry(0, true),
                 storage_entry(1, true),
                 storage_entry(2, true),
+                uniform_entry::<RtSceneInfo>(3, false),
             ],
         });
         let wave_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -256,7 +258,7 @@ impl GpuPathTracer {
                 let globals = RtGlobals {
                     cam_pos: camera.position.extend(camera.tan_half_y).into(),
                     cam_forward: camera.forward.extend(camera.aspect).into(),
-                    cam_right: camera.right.extend(scene.packed.p_emitters).into(),
+                    cam_right: camera.right.extend(0.0).into(),
                     cam_up: camera.up.extend(0.0).into(),
                     sky: settings.sky.extend(0.0).into(),
                     width: w,
@@ -267,18 +269,10 @@ impl GpuPathTracer {
                     path_count,
                     tiles_x,
                     max_groups,
-                    mat_base: scene.packed.mat_base,
-                    emitter_base: scene.packed.emitter_base,
-                    emitter_count: scene.packed.emitter_count,
-                    sun_base: scene.packed.sun_base,
-                    sun_count: scene.packed.sun_count,
-                    tex_base: scene.packed.tex_base,
                     spp: settings.spp,
                     rr_depth: RR_DEPTH,
                     tile_base,
                     tile_count,
-                    _pad0: 0,
-                    _pad1: 0,
                 };
                 ctx.queue
                     .write_buffer(&res.globals, 0, bytemuck::bytes_of(&globals));
@@ -591,7 +585,7 @@ impl GpuPathTracer {
             scene_bg: bind_group(
                 "PathTracer::scene_bind_group",
                 &self.scene_layout,
-                &[&scene.nodes, &scene.triangles, &scene.blob],
+                &[&scene.nodes, &scene.triangles, &scene.blob, &scene.info],
             ),
             wave_bg: bind_group(
                 "PathTracer::wave_bind_group",

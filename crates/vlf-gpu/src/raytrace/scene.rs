@@ -4,14 +4,19 @@
 //!
 //! | section | entries (vec4 each) |
 //! |---|---|
-//! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, 0, 0]` |
-//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, 0, 0]` |
+//! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, face, 0]` |
+//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, 0]` |
 //! | emitters, at `emitter_base` | per emitter: `[triangle, area, pdf, cdf]` |
 //! | suns, at `sun_base` | per sun: `[to_sun xyz, pdf]`, `[irradiance rgb, cdf]` |
 //! | textures, at `tex_base` | per texture: `[texel offset, width, height, wrap_s | wrap_t << 4]`, then all texels (linear RGBA) |
 //!
-//! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns.
+//! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns. The path tracer reads
+//! the path tracer's lobes (`w_diffuse`, α); the final gather reads what the light field holds at
+//! a ray's hit: the triangle's planar face and the baker's diffuse weight
+//! (`vlf_core::scene::Material::diffuse_weight`). The section offsets reach the shaders as an
+//! [`RtSceneInfo`] uniform ([`PackedScene::info`]).
 
+use crate::layout::RtSceneInfo;
 use vlf_core::pathtrace::{NONE, PreparedScene};
 
 /// The packed shading data and where each section starts.
@@ -32,20 +37,37 @@ fn bits(x: u32) -> f32 {
     f32::from_bits(x)
 }
 
+impl PackedScene {
+    /// The section offsets and light counts as the shaders bind them.
+    pub fn info(&self) -> RtSceneInfo {
+        RtSceneInfo {
+            mat_base: self.mat_base,
+            emitter_base: self.emitter_base,
+            emitter_count: self.emitter_count,
+            sun_base: self.sun_base,
+            sun_count: self.sun_count,
+            tex_base: self.tex_base,
+            p_emitters: self.p_emitters,
+            _pad: 0,
+        }
+    }
+}
+
 /// Packs the shading data of `prep` (see the module docs for the layout).
 pub fn pack(prep: &PreparedScene) -> PackedScene {
     let mut blob: Vec<[f32; 4]> = Vec::new();
-    for uv in &prep.uvs {
+    for (uv, t) in prep.uvs.iter().zip(&prep.bvh.triangles) {
+        let face = prep.scene.triangles[t.prim as usize].face;
         blob.push([uv[0].x, uv[0].y, uv[1].x, uv[1].y]);
-        blob.push([uv[2].x, uv[2].y, 0.0, 0.0]);
+        blob.push([uv[2].x, uv[2].y, bits(face), 0.0]);
     }
     let mat_base = blob.len() as u32;
-    for m in &prep.materials {
+    for (m, sm) in prep.materials.iter().zip(&prep.scene.materials) {
         let b = m.base_color;
         let e = m.emission;
         blob.push([b.x, b.y, b.z, bits(m.base_texture.unwrap_or(NONE))]);
         blob.push([e.x, e.y, e.z, bits(m.emissive_texture.unwrap_or(NONE))]);
-        blob.push([m.w_diffuse, m.alpha, 0.0, 0.0]);
+        blob.push([m.w_diffuse, m.alpha, sm.diffuse_weight(), 0.0]);
     }
     let emitter_base = blob.len() as u32;
     for e in &prep.lights.emitters {
@@ -143,5 +165,12 @@ mod tests {
         // The lamp's emitter entry points at a triangle of the lamp's material.
         let e = p.blob[p.emitter_base as usize];
         assert_eq!(prep.bvh.triangles[e[0].to_bits() as usize].material, lamp);
+        // Every triangle names its face; materials carry the baker's diffuse weight.
+        for (i, t) in prep.bvh.triangles.iter().enumerate() {
+            let face = scene.triangles[t.prim as usize].face;
+            assert_eq!(p.blob[2 * i + 1][2].to_bits(), face);
+        }
+        assert_eq!(p.blob[p.mat_base as usize + 3 * wall as usize + 2][2], 1.0);
+        assert_eq!(p.info().emitter_count, 2);
     }
 }

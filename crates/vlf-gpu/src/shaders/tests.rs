@@ -53,9 +53,12 @@ fn every_registered_shader_resolves_and_validates() {
         RAYTRACE_PATH.resolved().unwrap().files,
         [
             "raytrace_path.wgsl",
+            "common/rt_scene.wgsl",
             "common/bvh.wgsl",
             "common/rays.wgsl",
-            "common/hash.wgsl"
+            "common/random.wgsl",
+            "common/hash.wgsl",
+            "common/sampling.wgsl",
         ]
     );
 }

@@ -1,0 +1,54 @@
+// Sampling routines shared by the GPU path tracer and the GPU final gather (the ray-origin
+// offset is common/rays.wgsl's offset_origin). Mirror vlf_core::pathtrace::sampling.
+
+const PI: f32 = 3.14159265358979;
+const INV_PI: f32 = 0.318309886183791;
+const TAU: f32 = 6.28318530717959;
+
+// An orthonormal basis (t, b, n) around the unit vector n (Duff et al. 2017): t and b.
+fn basis_t(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+}
+
+fn basis_b(n: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+}
+
+// Local (z = normal) -> world.
+fn to_world(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return basis_t(n) * v.x + basis_b(n) * v.y + n * v.z;
+}
+
+// World -> local (z = normal).
+fn to_local(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(v, basis_t(n)), dot(v, basis_b(n)), dot(v, n));
+}
+
+// Cosine-weighted direction on the hemisphere around +z; pdf = z / pi.
+fn cosine_hemisphere(u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = TAU * u.y;
+    return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+}
+
+// Uniform barycentrics (b1, b2) of a point on a triangle (weights of p1 and p2).
+fn triangle_barycentrics(u: vec2<f32>) -> vec2<f32> {
+    let su = sqrt(u.x);
+    return vec2<f32>(1.0 - su, u.y * su);
+}
+
+// Power heuristic (beta = 2) weight of a sample drawn with pdf a against a strategy of pdf b.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    if a2 + b2 > 0.0 {
+        return a2 / (a2 + b2);
+    }
+    return 0.0;
+}
