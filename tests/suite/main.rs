@@ -3,6 +3,7 @@
 mod accuracy;
 mod bake_gpu;
 mod bake_plan;
+mod directions_gpu;
 mod glossy_gpu;
 mod gpu_smoke;
 mod pathtrace_gpu;

@@ -199,6 +199,28 @@ pub struct RtSceneInfo {
     pub _pad: u32,
 }
 
+/// The icosahedron tables of the direction lookup (`shaders/common/directions.wgsl`, group 2
+/// binding 0): [`vlf_core::directions::LookupTables`] as the shaders bind them (see
+/// [`crate::directions`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct DirTables {
+    /// Unit outward normal of each icosahedron face (xyz; w = 0).
+    pub face_normals: [[f32; 4]; 20],
+    /// `edge_normals[f][0]`, `[1]`, `[2]` of each face (xyz; w = 0).
+    pub edge0: [[f32; 4]; 20],
+    pub edge1: [[f32; 4]; 20],
+    pub edge2: [[f32; 4]; 20],
+    /// The four candidate faces of each sign octant.
+    pub octant_faces: [[u32; 4]; 8],
+    /// Frequency of the direction set.
+    pub k: u32,
+    /// Number of directions (sphere vertices `0..2l`).
+    pub l: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
 /// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
 /// (`raytrace_*.wgsl`, bound with a dynamic offset at a 256-byte stride).
 #[repr(C)]
@@ -350,6 +372,9 @@ pub fn registry() -> Vec<SharedStruct> {
         }),
         shared!(RtSceneInfo in "common/rt_scene.wgsl" {
             mat_base, emitter_base, emitter_count, sun_base, sun_count, tex_base, p_emitters, _pad,
+        }),
+        shared!(DirTables in "common/directions.wgsl" {
+            face_normals, edge0, edge1, edge2, octant_faces, k, l, _pad0, _pad1,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

@@ -49,6 +49,7 @@ pub static RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
 pub static RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
 pub static RAYTRACE_PATH: Shader = shader!("raytrace_path.wgsl");
 pub static RADIOSITY_JACOBI: Shader = shader!("radiosity_jacobi.wgsl");
+pub static DIRECTIONS_LOOKUP: Shader = shader!("directions_lookup.wgsl");
 
 /// Per-direction globals of the bake passes (bind group 0).
 pub static COMMON_BAKE_DIRECTION: Shader = shader!("common/bake_direction.wgsl");
@@ -76,6 +77,8 @@ pub static COMMON_RANDOM: Shader = shader!("common/random.wgsl");
 pub static COMMON_SAMPLING: Shader = shader!("common/sampling.wgsl");
 /// The ray-tracing scene's shading data: materials, texture coordinates, textures, lights.
 pub static COMMON_RT_SCENE: Shader = shader!("common/rt_scene.wgsl");
+/// The direction set's lookup (DirectionSet::lookup) and its tables.
+pub static COMMON_DIRECTIONS: Shader = shader!("common/directions.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -94,6 +97,7 @@ pub static ALL: &[&Shader] = &[
     &RAYTRACE_ENGINE,
     &RAYTRACE_PATH,
     &RADIOSITY_JACOBI,
+    &DIRECTIONS_LOOKUP,
     &COMMON_BAKE_DIRECTION,
     &COMMON_BAKE_SCENE,
     &COMMON_BAKE_RAYS,
@@ -107,6 +111,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_RANDOM,
     &COMMON_SAMPLING,
     &COMMON_RT_SCENE,
+    &COMMON_DIRECTIONS,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved
