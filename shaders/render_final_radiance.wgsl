@@ -56,14 +56,14 @@
 #import "common/texture.wgsl"
 #import "common/bvh.wgsl"
 #import "common/bake_scene.wgsl"
+#import "common/mirror_tiles.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
 
 const FACE_DIFFUSE: u32 = 0u;
 const FACE_MIRROR: u32 = 1u;
-// Must match upload.rs.
-const ATLAS_WIDTH: u32 = 4096u;
+// Must match upload.rs (ATLAS_WIDTH: common/mirror_tiles.wgsl).
 const FACE_RECORD_TEXELS: u32 = 8u;
 const FACES_PER_ROW: u32 = 1024u;
 // Face flags (bits of the face record's texel 0 w above the kind).
@@ -101,11 +101,7 @@ const MIRROR_DEPTH: u32 = 8u;
 @group(1) @binding(5) var atlas: texture_2d<f32>;
 // Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
 @group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
-// Mirror tiles (see upload.rs): index words (4 per texel), values (in the atlas's format),
-// direction frames (u, v).
-@group(1) @binding(7) var tile_words: texture_2d<u32>;
-@group(1) @binding(8) var tile_values: texture_2d<f32>;
-@group(1) @binding(9) var frames: texture_2d<f32>;
+// Group 2: the mirror tiles (common/mirror_tiles.wgsl; see upload.rs).
 // Pass 4's second target: the visible point's TEXCOORD_0.
 @group(1) @binding(10) var uvs: texture_2d<f32>;
 // Textures (see upload.rs): a record per texture ([first texel, width, height, wrap_s |
@@ -205,103 +201,16 @@ fn atlas_irradiance(f: Face, side: u32, p: vec3<f32>) -> vec3<f32> {
     return mix(mix(l00, l10, fx), mix(l01, l11, fx), fy);
 }
 
-fn word(k: u32) -> u32 {
-    let t = k / 4u;
-    return textureLoad(tile_words, vec2<u32>(t % ATLAS_WIDTH, t / ATLAS_WIDTH), 0)[k % 4u];
-}
-
-fn frame_axis(k: u32) -> vec3<f32> {
-    return textureLoad(frames, vec2<u32>(k % ATLAS_WIDTH, k / ATLAS_WIDTH), 0).xyz;
-}
-
-// Tile value slot of `face` (non-diffuse slot mf) for fixed direction j and cell (ci, cj):
-// the value index of sense 0 (add m² for sense 1), or -1 when the face stores no tile there or
-// the cell is not covered by the face.
-fn tile_value_index(mf: u32, j: u32, ci: i32, cj: i32, sense: u32) -> i32 {
-    let l = word(0u);
-    let m = word(1u);
-    let n = word(2u);
-    if (ci < 0 || cj < 0 || ci >= i32(n) || cj >= i32(n)) {
-        return -1;
-    }
-    let k = mf * l + j;
-    var lo = word(word(4u) + k);
-    var hi = word(word(4u) + k + 1u);
-    let uci = u32(ci);
-    let ucj = u32(cj);
-    let tile = (ucj / m) * (n / m) + uci / m;
-    while (lo < hi) {
-        let mid = (lo + hi) / 2u;
-        let t = word(word(5u) + mid);
-        if (t == tile) {
-            let local = (ucj % m) * m + uci % m;
-            let cov = word(word(6u) + mid * word(7u) + local / 32u);
-            if (((cov >> (local % 32u)) & 1u) == 0u) {
-                return -1;
-            }
-            return i32((mid * 2u + sense) * m * m + local);
-        }
-        if (t < tile) {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return -1;
-}
-
-fn tile_value(i: i32) -> vec3<f32> {
-    let u = u32(i);
-    return textureLoad(tile_values, vec2<u32>(u % ATLAS_WIDTH, u / ATLAS_WIDTH), 0).rgb;
-}
-
-// Specular radiance leaving face `face` at p towards the eye (against the view ray).
+// Specular radiance leaving face `face` at p towards the eye (against the view ray): the
+// mirror tiles (common/mirror_tiles.wgsl) with pass 1's sphere vertices and pass 2's weights.
 fn specular_radiance(face: u32, normal: vec3<f32>, p: vec3<f32>, px: vec2<i32>) -> vec3<f32> {
-    let mf = word(word(3u) + face);
-    if (mf == NO_FACE) {
+    let mf = tile_face_slot(face);
+    if (mf == NO_TILE_SLOT) {
         return vec3<f32>(0.0);
     }
-    let l = word(0u);
-    let n = f32(word(2u));
     let ids = textureLoad(direction_ids, px, 0).xyz;
     let wts = textureLoad(barycentrics, px, 0).xyz;
-    let to_eye = g.eye.xyz - p;
-    var out = vec3<f32>(0.0);
-    for (var k = 0u; k < 3u; k++) {
-        let v = ids[k];
-        let j = v % l;
-        // The opposite sense of the view ray's vertex: light travelling towards the eye.
-        let sense = 1u - v / l;
-        let fu = frame_axis(2u * j);
-        let fv = frame_axis(2u * j + 1u);
-        // Only light leaving the visible side: skip a vertex whose direction points into it.
-        let dir = cross(fu, fv) * select(1.0, -1.0, sense == 1u);
-        if (dot(dir, normal) * dot(to_eye, normal) <= 0.0) {
-            continue;
-        }
-        let cx = (dot(p, fu) + 1.0) * 0.5 * n - 0.5;
-        let cy = (dot(p, fv) + 1.0) * 0.5 * n - 0.5;
-        let x0 = i32(floor(cx));
-        let y0 = i32(floor(cy));
-        let fx = cx - floor(cx);
-        let fy = cy - floor(cy);
-        var sum = vec3<f32>(0.0);
-        var wsum = 0.0;
-        for (var c = 0u; c < 4u; c++) {
-            let dx = i32(c & 1u);
-            let dy = i32(c >> 1u);
-            let w = select(1.0 - fx, fx, dx == 1) * select(1.0 - fy, fy, dy == 1);
-            let i = tile_value_index(mf, j, x0 + dx, y0 + dy, sense);
-            if (i >= 0 && w > 0.0) {
-                sum += tile_value(i) * w;
-                wsum += w;
-            }
-        }
-        if (wsum > 0.0) {
-            out += wts[k] * (sum / wsum);
-        }
-    }
-    return out;
+    return tile_radiance(mf, normal, p, g.eye.xyz - p, ids, wts);
 }
 
 // Whether this pipeline reads a texture for face record `f`.

@@ -79,6 +79,8 @@ pub static COMMON_SAMPLING: Shader = shader!("common/sampling.wgsl");
 pub static COMMON_RT_SCENE: Shader = shader!("common/rt_scene.wgsl");
 /// The direction set's lookup (DirectionSet::lookup) and its tables.
 pub static COMMON_DIRECTIONS: Shader = shader!("common/directions.wgsl");
+/// The light field's mirror tiles: specular radiance leaving a face in a direction.
+pub static COMMON_MIRROR_TILES: Shader = shader!("common/mirror_tiles.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -112,6 +114,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_SAMPLING,
     &COMMON_RT_SCENE,
     &COMMON_DIRECTIONS,
+    &COMMON_MIRROR_TILES,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

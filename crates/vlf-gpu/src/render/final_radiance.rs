@@ -17,8 +17,10 @@
 //!   the eye travels against the view ray, so the three sphere vertices of pass 1 are taken in
 //!   the opposite sense with the pass-2 weights (paper §4's `Ls(ω,s,t,u,v,p) = Σ αᵢ Ls(ωᵢ,…)`);
 //!   for each, the position maps into that direction's ray grid and the tile values of the
-//!   covered cells around it are filtered bilinearly. (There is no CPU copy of this part; the
-//!   mirror accuracy tests compare whole images with the path-traced reference instead.)
+//!   covered cells around it are filtered bilinearly. That lookup lives in
+//!   `shaders/common/mirror_tiles.wgsl` (bind group 2, [`super::upload::tiles_layout`]), shared
+//!   with the GPU final gather; its CPU form is `vlf_core::gather::field::Tiles::radiance_towards`
+//!   (the mirror accuracy tests compare whole images with the path-traced reference).
 //! * With mirror tracing (the default where there are mirrors; [`FinalRadiancePass::set_tracing`]),
 //!   mirror and mixed faces trace the reflected view ray through the scene's BVH instead of
 //!   reading their tiles, and read the light field at the first diffuse face as this pass reads
@@ -81,7 +83,7 @@ use super::targets::{
     DEPTH_STENCIL_FORMAT, MIRROR_STENCIL, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets,
 };
 use super::upload::{
-    FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi,
+    FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi, tiles_layout,
 };
 use super::{storage_entry, texture_entry};
 use crate::raytrace::GpuBvh;
@@ -164,8 +166,17 @@ fn present_variants(
     v
 }
 
+/// The bind groups of pass 5 for one set of targets: group 1 (BVH, targets, faces, atlas,
+/// textures) and group 2 (mirror tiles).
+pub struct FinalRadianceBindings {
+    pass: wgpu::BindGroup,
+    tiles: wgpu::BindGroup,
+}
+
 pub struct FinalRadiancePass {
     pass_layout: wgpu::BindGroupLayout,
+    /// Group 2: the mirror tiles (`shaders/common/mirror_tiles.wgsl`).
+    tiles_layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
     /// Whether the light field has mirror or mixed faces (and so a traced branch).
@@ -210,9 +221,6 @@ impl FinalRadiancePass {
                 texture_entry(4, vis | vertex, wgpu::TextureSampleType::Uint),
                 texture_entry(5, vis, unfiltered),
                 storage_entry(6, vis, false),
-                texture_entry(7, vis, wgpu::TextureSampleType::Uint),
-                texture_entry(8, vis, unfiltered),
-                texture_entry(9, vis, unfiltered),
                 texture_entry(10, vis, unfiltered),
                 texture_entry(11, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(12, vis, unfiltered),
@@ -223,9 +231,14 @@ impl FinalRadiancePass {
                 storage_entry(17, vertex, true),
             ],
         });
+        let tiles_layout = tiles_layout(device, "FinalRadiance::tiles_layout", vis);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("FinalRadiance::pipeline_layout"),
-            bind_group_layouts: &[Some(globals_layout), Some(&pass_layout)],
+            bind_group_layouts: &[
+                Some(globals_layout),
+                Some(&pass_layout),
+                Some(&tiles_layout),
+            ],
             immediate_size: 0,
         });
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
@@ -244,6 +257,7 @@ impl FinalRadiancePass {
             .collect();
         Self {
             pass_layout,
+            tiles_layout,
             pipeline_layout,
             module,
             mirrors,
@@ -406,12 +420,12 @@ impl FinalRadiancePass {
         lf: &GpuLightField,
         mirror_bvh: &GpuBvh,
         mirror_uvs: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
+    ) -> FinalRadianceBindings {
         let tex = |binding, view| wgpu::BindGroupEntry {
             binding,
             resource: wgpu::BindingResource::TextureView(view),
         };
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let pass = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("FinalRadiance::pass_bind_group"),
             layout: &self.pass_layout,
             entries: &[
@@ -431,9 +445,6 @@ impl FinalRadiancePass {
                     binding: 6,
                     resource: targets.accum.as_entire_binding(),
                 },
-                tex(7, &lf.tile_words_view),
-                tex(8, &lf.tile_values_view),
-                tex(9, &lf.frames_view),
                 tex(10, &targets.uv_view),
                 tex(11, &lf.texture_records_view),
                 tex(12, &lf.texels_view),
@@ -452,7 +463,15 @@ impl FinalRadiancePass {
                     resource: lf.uvs.as_entire_binding(),
                 },
             ],
-        })
+        });
+        FinalRadianceBindings {
+            pass,
+            tiles: lf.tiles_bind_group(
+                device,
+                &self.tiles_layout,
+                "FinalRadiance::tiles_bind_group",
+            ),
+        }
     }
 
     /// Shades every pixel into the radiance target.
@@ -460,7 +479,7 @@ impl FinalRadiancePass {
         &self,
         encoder: &mut wgpu::CommandEncoder,
         globals: &wgpu::BindGroup,
-        bind_group: &wgpu::BindGroup,
+        bind_group: &FinalRadianceBindings,
         targets: &Targets,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
@@ -476,7 +495,8 @@ impl FinalRadiancePass {
             multiview_mask: None,
         });
         pass.set_bind_group(0, globals, &[]);
-        pass.set_bind_group(1, bind_group, &[]);
+        pass.set_bind_group(1, &bind_group.pass, &[]);
+        pass.set_bind_group(2, &bind_group.tiles, &[]);
         pass.set_pipeline(&self.pipelines[usize::from(self.tracing)]);
         pass.draw(0..3, 0..1);
     }
@@ -491,7 +511,7 @@ impl FinalRadiancePass {
         device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
         globals: &wgpu::BindGroup,
-        bind_group: &wgpu::BindGroup,
+        bind_group: &FinalRadianceBindings,
         targets: &Targets,
         lf: &GpuLightField,
         surface: &wgpu::TextureView,
@@ -527,7 +547,8 @@ impl FinalRadiancePass {
             multiview_mask: None,
         });
         pass.set_bind_group(0, globals, &[]);
-        pass.set_bind_group(1, bind_group, &[]);
+        pass.set_bind_group(1, &bind_group.pass, &[]);
+        pass.set_bind_group(2, &bind_group.tiles, &[]);
         pass.set_pipeline(&pipelines[0]);
         pass.draw(0..3, 0..1);
         for (v, pipeline) in variants.iter().zip(&pipelines[1..]) {

@@ -222,7 +222,7 @@ impl Display {
 /// Size-dependent state: targets and the bind groups that reference them.
 struct Frame {
     targets: Targets,
-    final_bind_group: wgpu::BindGroup,
+    final_bind_group: final_radiance::FinalRadianceBindings,
     display_bind_group: wgpu::BindGroup,
 }
 

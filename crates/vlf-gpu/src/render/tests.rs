@@ -6,7 +6,8 @@ use crate::shaders::{self, constant};
 use vlf_core::scene::WrapMode;
 use wgpu::naga::Literal;
 
-/// The texture layouts and face flags of `upload.rs` are the ones pass 5 reads, the wrap-mode
+/// The texture layouts and face flags of `upload.rs` are the ones pass 5 reads (the mirror
+/// tiles' through `common/mirror_tiles.wgsl`, which the GPU final gather shares), the wrap-mode
 /// ids the ones `common/texture.wgsl` knows, and the no-face id is the one pass 3 writes.
 #[test]
 fn shader_layout_constants_match_rust() {
@@ -25,6 +26,7 @@ fn shader_layout_constants_match_rust() {
         ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),
         ("FACE_MIRROR", vlf_core::lightfield::FACE_MIRROR),
         ("MIRROR_DEPTH", super::mirror_trace::MAX_DEPTH),
+        ("NO_TILE_SLOT", u32::MAX),
     ] {
         assert_eq!(
             constant(&module, name),

@@ -42,13 +42,16 @@
 //!     (1-texel dummy without tiles);
 //!   - frames (`Rgba32Float`, 2 texels per fixed direction: u, v of its twisted PSF frame).
 
+use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{
     BakeFace, BakeTriangle, LightField, NO_TEXTURE, Radiance, RadianceEncoding, SurfaceMaterial,
+    TileIndex,
 };
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
 use super::targets::{MIRROR_STENCIL, TEXTURED_STENCIL};
+use super::texture_entry;
 
 /// Width of the atlas texture (elements per row).
 pub const ATLAS_WIDTH: u32 = 4096;
@@ -98,6 +101,105 @@ pub struct GpuLightField {
     pub radiance_bytes: u64,
     /// Bytes of the surface textures (texels and records).
     pub texture_bytes: u64,
+}
+
+/// The layout of the mirror tiles' bind group (`shaders/common/mirror_tiles.wgsl`: group 2,
+/// bindings 3–5), visible to `visibility`.
+pub fn tiles_layout(
+    device: &wgpu::Device,
+    label: &str,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayout {
+    let unfiltered = wgpu::TextureSampleType::Float { filterable: false };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &[
+            texture_entry(3, visibility, wgpu::TextureSampleType::Uint),
+            texture_entry(4, visibility, unfiltered),
+            texture_entry(5, visibility, unfiltered),
+        ],
+    })
+}
+
+/// The tile index words of the mirror-tile textures (see the module docs): the header, then
+/// the packed arrays of `ix`, padded to whole texels.
+pub fn tile_words(ix: &TileIndex) -> Vec<u32> {
+    let mut w = vec![0u32; 8];
+    let push = |part: &[u32], w: &mut Vec<u32>| {
+        let off = w.len() as u32;
+        w.extend_from_slice(part);
+        off
+    };
+    let o0 = push(&ix.face_slot, &mut w);
+    let o1 = push(&ix.index_start, &mut w);
+    let o2 = push(&ix.tile_ids, &mut w);
+    let o3 = push(&ix.coverage, &mut w);
+    w[..8].copy_from_slice(&[
+        ix.directions,
+        ix.m,
+        ix.n,
+        o0,
+        o1,
+        o2,
+        o3,
+        vlf_core::lightfield::tiles::words_per_slot(ix.m) as u32,
+    ]);
+    w.resize(w.len().next_multiple_of(4), 0);
+    w
+}
+
+/// The frame texels of the mirror-tile textures: u, v of each fixed direction's PSF frame.
+pub fn tile_frames(set: &DirectionSet) -> Vec<[f32; 4]> {
+    vlf_core::psf::fixed_frames(set)
+        .iter()
+        .flat_map(|f| [f.u.extend(0.0).to_array(), f.v.extend(0.0).to_array()])
+        .collect()
+}
+
+/// Mirror tiles with f32 values (a converged light field before it is stored, as the GPU final
+/// gather reads it) as the three textures of `shaders/common/mirror_tiles.wgsl`: index words,
+/// values (`Rgba32Float`), frames; 1-texel dummies without tiles. Labels are
+/// `"{prefix}::tile_words"` etc.; adds their bytes to `bytes`.
+pub fn float_tile_textures(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    prefix: &str,
+    tiles: Option<(&TileIndex, &[[f32; 4]])>,
+    set: &DirectionSet,
+    bytes: &mut u64,
+) -> Result<[wgpu::TextureView; 3], RenderError> {
+    let (words, values, frames) = match tiles {
+        Some((ix, values)) => (tile_words(ix), values.to_vec(), tile_frames(set)),
+        None => (vec![0u32; 4], Vec::new(), Vec::new()),
+    };
+    let mut tex = |what: &str, format, data: &[u8]| {
+        wrapped_texture(
+            device,
+            queue,
+            &format!("{prefix}::{what}"),
+            format,
+            ATLAS_WIDTH,
+            data,
+            bytes,
+        )
+    };
+    Ok([
+        tex(
+            "tile_words",
+            wgpu::TextureFormat::Rgba32Uint,
+            bytemuck::cast_slice(&words),
+        )?,
+        tex(
+            "tile_values",
+            wgpu::TextureFormat::Rgba32Float,
+            bytemuck::cast_slice(&values),
+        )?,
+        tex(
+            "tile_frames",
+            wgpu::TextureFormat::Rgba32Float,
+            bytemuck::cast_slice(&frames),
+        )?,
+    ])
 }
 
 /// The texture format the radiance of `encoding` is uploaded as (see the module docs).
@@ -174,6 +276,29 @@ pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_
 }
 
 impl GpuLightField {
+    /// The mirror tiles' bind group (index words, values, frames) for `layout` (made by
+    /// [`tiles_layout`]).
+    pub fn tiles_bind_group(
+        &self,
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        label: &str,
+    ) -> wgpu::BindGroup {
+        let tex = |binding, view| wgpu::BindGroupEntry {
+            binding,
+            resource: wgpu::BindingResource::TextureView(view),
+        };
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout,
+            entries: &[
+                tex(3, &self.tile_words_view),
+                tex(4, &self.tile_values_view),
+                tex(5, &self.frames_view),
+            ],
+        })
+    }
+
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -292,32 +417,7 @@ impl GpuLightField {
         let no_tiles = Radiance::new(lf.irradiance.encoding());
         let (words, values, frames) = match &lf.tiles {
             Some(t) => {
-                let ix = &t.index;
-                let mut w = vec![0u32; 8];
-                let push = |part: &[u32], w: &mut Vec<u32>| {
-                    let off = w.len() as u32;
-                    w.extend_from_slice(part);
-                    off
-                };
-                let o0 = push(&ix.face_slot, &mut w);
-                let o1 = push(&ix.index_start, &mut w);
-                let o2 = push(&ix.tile_ids, &mut w);
-                let o3 = push(&ix.coverage, &mut w);
-                w[..8].copy_from_slice(&[
-                    ix.directions,
-                    ix.m,
-                    ix.n,
-                    o0,
-                    o1,
-                    o2,
-                    o3,
-                    vlf_core::lightfield::tiles::words_per_slot(ix.m) as u32,
-                ]);
-                w.resize(w.len().next_multiple_of(4), 0);
-                let frames: Vec<[f32; 4]> = vlf_core::psf::fixed_frames(&lf.directions)
-                    .iter()
-                    .flat_map(|f| [f.u.extend(0.0).to_array(), f.v.extend(0.0).to_array()])
-                    .collect();
+                let (w, frames) = (tile_words(&t.index), tile_frames(&lf.directions));
                 (w, &t.radiance, frames)
             }
             None => (vec![0u32; 4], &no_tiles, Vec::new()),
