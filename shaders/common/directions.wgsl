@@ -4,7 +4,7 @@
 // direction within rounding of a triangle edge may land in the neighbouring triangle, where the
 // vertex it does not share carries a weight of about zero). Tables: vlf_gpu::directions.
 //
-// Group 2 (bindings 0–2) of the shaders that import it.
+// Group 2 (bindings 0 and 1) of the shaders that import it.
 
 // The icosahedron tables of the lookup (mirrors vlf_gpu::layout::DirTables, built from
 // vlf_core::directions::LookupTables).
@@ -26,11 +26,18 @@ struct DirTables {
 }
 
 @group(2) @binding(0) var<uniform> dir_tables: DirTables;
-// Unit sphere-vertex positions (xyz; w unused), by sphere-vertex id.
-@group(2) @binding(1) var<storage, read> sphere_vertices: array<vec4<f32>>;
-// Sphere triangles (three sphere-vertex ids; w unused), in the order of
-// DirectionSet::sphere_triangles.
-@group(2) @binding(2) var<storage, read> sphere_triangles: array<vec4<u32>>;
+// The sphere mesh: the 2l unit sphere-vertex positions (xyz; w unused) by sphere-vertex id,
+// then the sphere triangles in the order of DirectionSet::sphere_triangles (three sphere-vertex
+// ids as bits; w unused). One buffer, to keep within 8 storage buffers per stage.
+@group(2) @binding(1) var<storage, read> dir_mesh: array<vec4<f32>>;
+
+fn sphere_vertex(v: u32) -> vec3<f32> {
+    return dir_mesh[v].xyz;
+}
+
+fn sphere_triangle(t: u32) -> vec3<u32> {
+    return bitcast<vec3<u32>>(dir_mesh[2u * dir_tables.l + t].xyz);
+}
 
 // Result of direction_lookup (mirrors vlf_core::directions::Lookup).
 struct DirLookup {
@@ -58,7 +65,7 @@ fn direction_lookup(d_in: vec3<f32>) -> DirLookup {
     // Scale before normalising so that huge components do not overflow.
     let m = max(abs(d_in.x), max(abs(d_in.y), abs(d_in.z)));
     let fallback = !(m > 0.0 && m <= 3.4028235e38);
-    var d = sphere_vertices[0].xyz;
+    var d = sphere_vertex(0u);
     if !fallback {
         d = normalize(d_in / m);
     }
@@ -99,11 +106,11 @@ fn direction_lookup(d_in: vec3<f32>) -> DirLookup {
         down = fx + fy > 1.0 && i + j < km1;
     }
     let t = f * k * k + 2u * k * j - j * j + 2u * i + select(0u, 1u, down);
-    let vs = sphere_triangles[t].xyz;
+    let vs = sphere_triangle(t);
     // 4. Gnomonic barycentrics against the three stored vertices.
-    let p0 = sphere_vertices[vs.x].xyz;
-    let p1 = sphere_vertices[vs.y].xyz;
-    let p2 = sphere_vertices[vs.z].xyz;
+    let p0 = sphere_vertex(vs.x);
+    let p1 = sphere_vertex(vs.y);
+    let p2 = sphere_vertex(vs.z);
     var w = max(vec3<f32>(dot(d, cross(p1, p2)), dot(d, cross(p2, p0)), dot(d, cross(p0, p1))), vec3<f32>(0.0));
     let sum = w.x + w.y + w.z;
     if sum > 0.0 {

@@ -4,6 +4,7 @@ mod accuracy;
 mod bake_gpu;
 mod bake_plan;
 mod directions_gpu;
+mod gather_gpu;
 mod glossy_gpu;
 mod gpu_smoke;
 mod pathtrace_gpu;

@@ -39,55 +39,44 @@ pub fn tables(set: &DirectionSet) -> DirTables {
 }
 
 /// The layout of group 2 of the shaders that import `common/directions.wgsl`: the tables
-/// (uniform), the sphere vertices and the sphere triangles (storage).
+/// (uniform) and the sphere mesh (storage).
 pub fn tables_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
-        entries: &[
-            uniform_entry::<DirTables>(0, false),
-            storage_entry(1, true),
-            storage_entry(2, true),
-        ],
+        entries: &[uniform_entry::<DirTables>(0, false), storage_entry(1, true)],
     })
 }
 
 /// A direction set uploaded for the WGSL lookup.
 pub struct GpuDirections {
     pub tables: wgpu::Buffer,
-    /// Unit sphere-vertex positions (vec4, w unused), by sphere-vertex id.
-    pub vertices: wgpu::Buffer,
-    /// Sphere triangles (vec4<u32>: three sphere-vertex ids, w unused).
-    pub triangles: wgpu::Buffer,
+    /// The sphere mesh (vec4 each): the unit sphere-vertex positions by sphere-vertex id, then
+    /// the sphere triangles (three sphere-vertex ids as bits).
+    pub mesh: wgpu::Buffer,
 }
 
 impl GpuDirections {
     pub fn new(device: &wgpu::Device, set: &DirectionSet) -> Self {
-        let verts: Vec<[f32; 4]> = set
+        let mut mesh: Vec<[f32; 4]> = set
             .sphere_vertices()
             .iter()
             .map(|p| p.extend(0.0).into())
             .collect();
-        let tris: Vec<[u32; 4]> = set
-            .sphere_triangles()
-            .iter()
-            .map(|t| [t[0], t[1], t[2], 0])
-            .collect();
+        mesh.extend(
+            set.sphere_triangles()
+                .iter()
+                .map(|t| [t[0], t[1], t[2], 0].map(f32::from_bits)),
+        );
         Self {
             tables: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("Directions::tables"),
                 contents: bytemuck::bytes_of(&tables(set)),
                 usage: wgpu::BufferUsages::UNIFORM,
             }),
-            vertices: storage_buffer(
+            mesh: storage_buffer(
                 device,
-                "Directions::vertices",
-                &verts,
-                wgpu::BufferUsages::empty(),
-            ),
-            triangles: storage_buffer(
-                device,
-                "Directions::triangles",
-                &tris,
+                "Directions::mesh",
+                &mesh,
                 wgpu::BufferUsages::empty(),
             ),
         }
@@ -109,11 +98,7 @@ impl GpuDirections {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(label),
             layout,
-            entries: &[
-                entry(0, &self.tables),
-                entry(1, &self.vertices),
-                entry(2, &self.triangles),
-            ],
+            entries: &[entry(0, &self.tables), entry(1, &self.mesh)],
         })
     }
 }

@@ -221,6 +221,42 @@ pub struct DirTables {
     pub _pad1: u32,
 }
 
+/// Per-dispatch globals of the GPU final gather (`shaders/gather_texels.wgsl`, group 0
+/// binding 0; see [`crate::gather`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GatherGlobals {
+    /// Sky radiance (rgb; w unused).
+    pub sky: [f32; 4],
+    /// World → VLF: `(p − center) · scale`.
+    pub xf_center: [f32; 3],
+    pub xf_scale: f32,
+    /// The chunk of texels of this dispatch.
+    pub texel_base: u32,
+    pub texel_count: u32,
+    /// Random stream selector and seed (`vlf_core::gather::{STREAM_*, SEED}`).
+    pub stream: u32,
+    pub seed: u32,
+    /// Sample points per texel and the side of their strata grid.
+    pub points: u32,
+    pub points_side: u32,
+    /// Probes along the normal closer than this close a point (world units).
+    pub r_close: f32,
+    /// 1 when the light field has mirror tiles.
+    pub has_tiles: u32,
+    /// Light samples and cosine rays per texel and the sides of their strata grids.
+    pub light_samples: u32,
+    pub light_side: u32,
+    pub cosine_rays: u32,
+    pub cosine_side: u32,
+    /// Section offsets (vec4 units) of the grid buffer (texels, chart starts, chart
+    /// triangles) and of the field buffer's irradiance.
+    pub grid_texels: u32,
+    pub chart_start: u32,
+    pub chart_tris: u32,
+    pub field_irradiance: u32,
+}
+
 /// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
 /// (`raytrace_*.wgsl`, bound with a dynamic offset at a 256-byte stride).
 #[repr(C)]
@@ -375,6 +411,11 @@ pub fn registry() -> Vec<SharedStruct> {
         }),
         shared!(DirTables in "common/directions.wgsl" {
             face_normals, edge0, edge1, edge2, octant_faces, k, l, _pad0, _pad1,
+        }),
+        shared!(GatherGlobals in "gather_texels.wgsl" {
+            sky, xf_center, xf_scale, texel_base, texel_count, stream, seed, points, points_side,
+            r_close, has_tiles, light_samples, light_side, cosine_rays, cosine_side, grid_texels,
+            chart_start, chart_tris, field_irradiance,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

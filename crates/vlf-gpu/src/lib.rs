@@ -8,12 +8,14 @@
 //! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
 //! * [`render`]: the viewer's five render passes (paper §4) and headless stills.
 //! * [`directions`]: the direction set's lookup in WGSL, its tables and a batch lookup pass.
+//! * [`gather`]: the final gather on the GPU (`vlf_core::gather` is its specification).
 //! * [`radiosity`]: Jacobi sweeps of the matrix radiosity baseline (`vlf_core::radiosity`).
 //! * [`readback`]: small helpers to copy buffers back to the CPU (tests, stills, bakes).
 
 pub mod bake;
 pub mod device;
 pub mod directions;
+pub mod gather;
 pub mod layout;
 pub mod passes;
 pub mod radiosity;

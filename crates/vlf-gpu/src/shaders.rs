@@ -50,6 +50,7 @@ pub static RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
 pub static RAYTRACE_PATH: Shader = shader!("raytrace_path.wgsl");
 pub static RADIOSITY_JACOBI: Shader = shader!("radiosity_jacobi.wgsl");
 pub static DIRECTIONS_LOOKUP: Shader = shader!("directions_lookup.wgsl");
+pub static GATHER_TEXELS: Shader = shader!("gather_texels.wgsl");
 
 /// Per-direction globals of the bake passes (bind group 0).
 pub static COMMON_BAKE_DIRECTION: Shader = shader!("common/bake_direction.wgsl");
@@ -100,6 +101,7 @@ pub static ALL: &[&Shader] = &[
     &RAYTRACE_PATH,
     &RADIOSITY_JACOBI,
     &DIRECTIONS_LOOKUP,
+    &GATHER_TEXELS,
     &COMMON_BAKE_DIRECTION,
     &COMMON_BAKE_SCENE,
     &COMMON_BAKE_RAYS,
