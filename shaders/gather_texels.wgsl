@@ -61,6 +61,10 @@ struct GatherGlobals {
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 // The estimate per texel of the grid (rgb; a = 1 where the texel has an open point).
 @group(0) @binding(2) var<storage, read_write> gather_out: array<vec4<f32>>;
+// Per invocation of the chunk, SCRATCH entries: its sample points (xyz, MAX_POINTS entries),
+// then its strata order (x as bits, MAX_STRATA entries); big private arrays spill on real GPUs
+// anyway.
+@group(0) @binding(3) var<storage, read_write> scratch: array<vec4<f32>>;
 
 // Group 1: the ray-tracing scene (common/rt_scene.wgsl).
 // Group 2: directions (bindings 0, 1), mirror tiles (3–5), and what a gather ray reads at its
@@ -96,9 +100,27 @@ const MAX_STRATA: u32 = 256u;
 const DRAWS_IN_STRATUM: u32 = 4u;
 const DRAWS_IN_TEXEL: u32 = 4u;
 
-var<private> pts: array<vec3<f32>, MAX_POINTS>;
+const SCRATCH: u32 = MAX_POINTS + MAX_STRATA;
+
 var<private> npts: u32;
-var<private> order: array<u32, MAX_STRATA>;
+// This invocation's first scratch entry.
+var<private> scratch_base: u32;
+
+fn point(k: u32) -> vec3<f32> {
+    return scratch[scratch_base + k].xyz;
+}
+
+fn set_point(k: u32, p: vec3<f32>) {
+    scratch[scratch_base + k] = vec4<f32>(p, 0.0);
+}
+
+fn order_at(k: u32) -> u32 {
+    return bitcast<u32>(scratch[scratch_base + MAX_POINTS + k].x);
+}
+
+fn set_order(k: u32, v: u32) {
+    scratch[scratch_base + MAX_POINTS + k] = vec4<f32>(bitcast<f32>(v), 0.0, 0.0, 0.0);
+}
 
 fn to_world_point(q: vec3<f32>) -> vec3<f32> {
     return q / gg.xf_scale + gg.xf_center;
@@ -220,29 +242,31 @@ fn sample_points(t: u32, r: ptr<function, Rng>) -> vec3<f32> {
     let inv = 1.0 / f32(g);
     for (var k = 0u; k < gg.points; k++) {
         let s = vec2<f32>(f32(k % g), f32(k / g % g));
+        // Draws until one lands on the face where it is open.
+        var found = false;
         for (var draw = 0u; draw < DRAWS_IN_STRATUM + DRAWS_IN_TEXEL; draw++) {
-            let j = rng_2d(r);
-            var c = corner + j;
-            if draw < DRAWS_IN_STRATUM {
-                c = corner + (s + j) * inv;
+            if !found {
+                let j = rng_2d(r);
+                var c = corner + j;
+                if draw < DRAWS_IN_STRATUM {
+                    c = corner + (s + j) * inv;
+                }
+                if chart_inside(fi, c) {
+                    let p = chart_world(fi, c);
+                    if !test_each || is_open(p, n) {
+                        set_point(npts, p);
+                        npts++;
+                        found = true;
+                    }
+                }
             }
-            if !chart_inside(fi, c) {
-                continue;
-            }
-            let p = chart_world(fi, c);
-            if test_each && !is_open(p, n) {
-                continue;
-            }
-            pts[npts] = p;
-            npts++;
-            break;
         }
     }
     if npts == 0u {
         // A sliver of the face that no draw found: its covered part's centroid.
         let p = to_world_point(texel.xyz);
         if !test_each || is_open(p, n) {
-            pts[0] = p;
+            set_point(0u, p);
             npts = 1u;
         }
     }
@@ -253,19 +277,19 @@ fn sample_points(t: u32, r: ptr<function, Rng>) -> vec3<f32> {
 fn shuffle_strata(g: u32, r: ptr<function, Rng>) {
     let len = g * g;
     for (var i = 0u; i < len; i++) {
-        order[i] = i;
+        set_order(i, i);
     }
     for (var i = len - 1u; i >= 1u; i--) {
         let j = rng_next(r) % (i + 1u);
-        let tmp = order[i];
-        order[i] = order[j];
-        order[j] = tmp;
+        let tmp = order_at(i);
+        set_order(i, order_at(j));
+        set_order(j, tmp);
     }
 }
 
 // Strata::point: a jittered point of the stratum paired with sample k.
 fn strata_point(k: u32, g: u32, r: ptr<function, Rng>) -> vec2<f32> {
-    let s = order[k % (g * g)];
+    let s = order_at(k % (g * g));
     let j = rng_2d(r);
     return vec2<f32>(f32(s % g) + j.x, f32(s / g) + j.y) / f32(g);
 }
@@ -318,6 +342,7 @@ fn chunk_texel(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     if i >= gg.texel_count {
         return NONE;
     }
+    scratch_base = i * SCRATCH;
     return gg.texel_base + i;
 }
 
@@ -339,12 +364,15 @@ fn indirect(
     }
     shuffle_strata(gg.cosine_side, &r);
     var sum = vec3<f32>(0.0);
-    for (var k = 0u; k < npts; k++) {
-        let u = strata_point(k, gg.cosine_side, &r);
-        let dir = to_world(cosine_hemisphere(u), n);
-        let hit = trace(Ray(offset_origin(pts[k], n), 0.0, dir, FAR), false);
-        if hit.tri != NONE {
-            sum += field_radiance(dir, hit);
+    let count = npts;
+    for (var k = 0u; k < gg.cosine_rays; k++) {
+        if k < count {
+            let u = strata_point(k, gg.cosine_side, &r);
+            let dir = to_world(cosine_hemisphere(u), n);
+            let hit = trace(Ray(offset_origin(point(k), n), 0.0, dir, FAR), false);
+            if hit.tri != NONE {
+                sum += field_radiance(dir, hit);
+            }
         }
     }
     gather_out[t] = vec4<f32>(sum * (PI / f32(npts)), 1.0);
@@ -374,7 +402,7 @@ fn direct(
     // Light samples.
     shuffle_strata(gg.light_side, &r);
     for (var k = 0u; k < n_l; k++) {
-        let p = pts[k % npts];
+        let p = point(k % npts);
         let u = strata_point(k, gg.light_side, &r);
         let pe = pick_emitter_remapped(u);
         let e = blob[scene_info.emitter_base + pe.index];
@@ -404,7 +432,7 @@ fn direct(
     // Cosine rays: the sky, and emitters weighted against the light samples.
     shuffle_strata(gg.cosine_side, &r);
     for (var k = 0u; k < n_b; k++) {
-        let p = pts[k % npts];
+        let p = point(k % npts);
         let u = strata_point(k, gg.cosine_side, &r);
         let dir = to_world(cosine_hemisphere(u), n);
         let hit = trace(Ray(offset_origin(p, n), 0.0, dir, FAR), false);
@@ -430,7 +458,7 @@ fn direct(
     if scene_info.sun_count > 0u {
         var sun = vec3<f32>(0.0);
         for (var k = 0u; k < npts; k++) {
-            let origin = offset_origin(pts[k], n);
+            let origin = offset_origin(point(k), n);
             for (var s = 0u; s < scene_info.sun_count; s++) {
                 let a = blob[scene_info.sun_base + 2u * s];
                 let b = blob[scene_info.sun_base + 2u * s + 1u];

@@ -1,8 +1,11 @@
 //! The GPU final gather (`vlf_gpu::gather`) against its specification, the CPU gather
 //! (`vlf_core::gather`): the same grids, streams and estimators, so the atlases agree up to
-//! f32 rounding that now and then sends a ray another way. Tolerances are measured (printed)
-//! and bounded with a margin. Also: two GPU runs are bit-identical, and the result does not
-//! depend on how the texels are split into dispatches.
+//! f32 rounding that now and then sends a ray another way. Measured on lavapipe (printed by the
+//! tests): mean relative difference over covered texels ≤ 4.5e-8 on every scene here (Cornell
+//! box 2.4e-8, mirror box 4.5e-8, the analytic scenes ≤ 2.4e-8), no texel differing by more
+//! than 1e-3; bounds [`MAX_MEAN`] and [`MAX_BEYOND`] leave room for adapters whose sin, cos and
+//! sqrt round differently. Also: two GPU runs are bit-identical, and the result does not depend
+//! on how the texels are split into dispatches.
 
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
@@ -59,6 +62,11 @@ impl Field {
     }
 }
 
+/// Bound of the mean relative difference (Σ|gpu − cpu| / Σ|cpu| over covered texels).
+const MAX_MEAN: f64 = 1e-4;
+/// Bound of the fraction of covered texels whose relative difference exceeds 1e-3.
+const MAX_BEYOND: f64 = 0.01;
+
 fn gp() -> GatherParams {
     GatherParams {
         texel_scale: 1.0,
@@ -113,7 +121,7 @@ fn difference(cpu: &Gathered, gpu: &Gathered) -> (f64, f64) {
     )
 }
 
-fn compare(ctx: &GpuContext, name: &str, scene: &Scene, sky: Vec3, max_mean: f64, max_beyond: f64) {
+fn compare(ctx: &GpuContext, name: &str, scene: &Scene, sky: Vec3) {
     let field = Field::new(scene, sky);
     let gp = gp();
     let cpu = final_gather(scene, &field.converged(), &gp, 0).unwrap();
@@ -217,29 +225,13 @@ fn cornell(file: &str) -> Scene {
 #[test]
 fn gpu_gather_matches_cpu_on_analytic_scenes() {
     let Some(ctx) = gpu() else { return };
-    compare(
-        ctx,
-        "lamp over floor",
-        &lamp_over_floor(),
-        Vec3::ZERO,
-        1e-2,
-        0.05,
-    );
-    compare(
-        ctx,
-        "sun and blocker",
-        &sun_and_blocker(),
-        Vec3::splat(0.3),
-        1e-2,
-        0.05,
-    );
+    compare(ctx, "lamp over floor", &lamp_over_floor(), Vec3::ZERO);
+    compare(ctx, "sun and blocker", &sun_and_blocker(), Vec3::splat(0.3));
     compare(
         ctx,
         "slab under the ceiling",
         &slab_under_ceiling(),
         Vec3::ZERO,
-        1e-2,
-        0.05,
     );
 }
 
@@ -251,16 +243,12 @@ fn gpu_gather_matches_cpu_on_cornell_boxes() {
         "Cornell box",
         &cornell("cornell-box/cornell-box.gltf"),
         Vec3::ZERO,
-        1e-2,
-        0.05,
     );
     compare(
         ctx,
         "mirror Cornell box",
         &cornell("cornell-mirror/cornell-mirror.gltf"),
         Vec3::ZERO,
-        1e-2,
-        0.05,
     );
 }
 

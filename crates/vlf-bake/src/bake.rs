@@ -177,6 +177,62 @@ pub struct MemoryReport {
     pub plan: memory::MemoryPlan,
 }
 
+/// The final gather (on the GPU with a device: `vlf_gpu::gather`, tested against the CPU
+/// gather; on the CPU otherwise, or when the sample counts exceed the GPU gather's bound), then
+/// the mirror tiles' resampling and the light field (`vlf_core::pipeline`).
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    scene: &vlf_core::scene::Scene,
+    prep: &bake::BakeScene,
+    params: &BakeParams,
+    set: &vlf_core::directions::DirectionSet,
+    out: bake::reference::Propagated,
+    stats: BakeStats,
+    compute: &Compute,
+    threads: usize,
+) -> anyhow::Result<vlf_core::pipeline::Finished> {
+    use vlf_core::pipeline;
+    let (Compute::Gpu(ctx, _), Some(gp)) = (compute, params.final_gather) else {
+        return Ok(pipeline::finish(
+            scene,
+            prep,
+            params,
+            set.clone(),
+            out,
+            stats,
+            threads,
+        )?);
+    };
+    let pipelines = vlf_gpu::gather::GatherPipelines::of(ctx);
+    let field = pipeline::converged(prep, params, set, &out);
+    let g = match vlf_gpu::gather::final_gather(ctx, &pipelines, scene, &field, &gp) {
+        Ok(g) => g,
+        Err(e @ vlf_gpu::gather::GpuGatherError::TooManySamples { .. }) => {
+            log::warn!("{e}: the final gather runs on the CPU");
+            return Ok(pipeline::finish(
+                scene,
+                prep,
+                params,
+                set.clone(),
+                out,
+                stats,
+                threads,
+            )?);
+        }
+        Err(e) => return Err(e).context("GPU final gather"),
+    };
+    Ok(pipeline::finish_gathered(
+        scene,
+        prep,
+        params,
+        set.clone(),
+        out,
+        stats,
+        threads,
+        g,
+    )?)
+}
+
 /// Bakes one scene with an already opened device and writes the file atomically. `progress`
 /// receives (done, total) units of propagation work and what is running. The memory of the
 /// bake is planned against `budget` first: `--resolution` may be lowered (with a warning, and
@@ -270,9 +326,8 @@ pub fn bake_scene(
     }
     // The final gather (when asked for), then the light field. A non-finite radiance is a bug
     // or a degenerate input: refuse it rather than write it.
-    let finished =
-        vlf_core::pipeline::finish(&scene, &prep, params, set.clone(), out, stats, threads)
-            .with_context(|| format!("finishing the light field of {}", scene_path.display()))?;
+    let finished = finish(&scene, &prep, params, &set, out, stats, compute, threads)
+        .with_context(|| format!("finishing the light field of {}", scene_path.display()))?;
     let t_gather = t.elapsed().as_secs_f64();
     let lf = finished.light_field;
     let t = Instant::now();

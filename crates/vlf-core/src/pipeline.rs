@@ -5,7 +5,7 @@
 use crate::bake::reference::{self, Propagated};
 use crate::bake::{BakeError, BakeScene, try_assemble};
 use crate::directions::DirectionSet;
-use crate::gather::{Converged, GatherStats, final_gather};
+use crate::gather::{Converged, GatherStats, Gathered, final_gather};
 use crate::lightfield::{BakeParams, BakeStats, LightField};
 use crate::resample::{ResampleStats, resample_tiles};
 use crate::scene::Scene;
@@ -38,15 +38,48 @@ pub fn finish(
             resample: None,
         });
     };
-    let field = Converged {
+    let g = final_gather(
+        scene,
+        &converged(prep, params, &directions, &propagated),
+        &gp,
+        threads,
+    )?;
+    finish_gathered(
+        scene, prep, params, directions, propagated, stats, threads, g,
+    )
+}
+
+/// The converged field of a propagation of `prep` as the final gather reads it.
+pub fn converged<'a>(
+    prep: &'a BakeScene,
+    params: &BakeParams,
+    directions: &'a DirectionSet,
+    propagated: &'a Propagated,
+) -> Converged<'a> {
+    Converged {
         prep,
         irradiance: &propagated.irradiance,
         tiles: propagated.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-        directions: &directions,
+        directions,
         sky: params.sky,
         ray_spacing: 2.0 / params.resolution as f32,
-    };
-    let g = final_gather(scene, &field, &gp, threads)?;
+    }
+}
+
+/// [`finish`] once the final gather has run (on the CPU here, or elsewhere: the GPU gather,
+/// `vlf_gpu::gather`, over [`converged`]): the mirror tiles' resampling (on `threads` workers)
+/// and the assembled light field.
+#[allow(clippy::too_many_arguments)]
+pub fn finish_gathered(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    directions: DirectionSet,
+    propagated: Propagated,
+    stats: BakeStats,
+    threads: usize,
+    g: Gathered,
+) -> Result<Finished, BakeError> {
     // The mirror tiles, resampled by tracing true reflected rays into the gathered field.
     let mut resample = None;
     let tiles = propagated.tiles.as_ref().map(|(index, values)| {

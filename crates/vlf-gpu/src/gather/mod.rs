@@ -16,8 +16,10 @@
 //! Bind groups of both entry points (`indirect`, `direct`): 0 = [`GatherGlobals`], the grid
 //! (faces, texels, chart triangles: one buffer in sections) and the output, 1 = the ray-tracing
 //! scene (`common/rt_scene.wgsl`), 2 = the converged field: direction tables (0, 1), mirror
-//! tiles (3–5), the propagation's faces and dilated irradiance (6, one buffer). Seven storage
-//! buffers in all: the device's minimum is eight per stage.
+//! tiles (3–5), the propagation's faces and dilated irradiance (6, one buffer). Eight storage
+//! buffers in all, the device's minimum per stage. Each invocation keeps its sample points and
+//! strata order in a scratch storage buffer (8 KiB per texel of a chunk), not in private
+//! arrays (see `gather_texels.wgsl`).
 
 use std::sync::Arc;
 
@@ -45,6 +47,9 @@ const WORKGROUP: u32 = 64;
 /// Bounds of a texel's sample points and strata in `gather_texels.wgsl` (`MAX_POINTS`,
 /// `MAX_STRATA`).
 pub const MAX_SAMPLES: u32 = 256;
+/// Scratch entries (vec4) per invocation: sample points and strata order
+/// (`gather_texels.wgsl`'s `SCRATCH`).
+const SCRATCH: u64 = 2 * MAX_SAMPLES as u64;
 /// Texels per dispatch by default: small enough that no dispatch runs for long on a software
 /// adapter (one submission each).
 pub const DEFAULT_CHUNK: u32 = 4096;
@@ -92,6 +97,7 @@ impl GatherPipelines {
                 uniform_entry::<GatherGlobals>(0, false),
                 storage_entry(1, true),
                 storage_entry(2, false),
+                storage_entry(3, false),
             ],
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -391,6 +397,21 @@ fn gather_grid(
         &vec![[0.0f32; 4]; count as usize],
         wgpu::BufferUsages::COPY_SRC,
     )?;
+    let scratch_bytes = u64::from(chunk.min(count)) * SCRATCH * 16;
+    let limit = device.limits().max_storage_buffer_binding_size;
+    if scratch_bytes > limit {
+        return Err(GpuGatherError::TooLarge {
+            what: "Gather::scratch",
+            bytes: scratch_bytes,
+            limit,
+        });
+    }
+    let scratch = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("Gather::scratch"),
+        size: scratch_bytes,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
     let globals = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("Gather::globals"),
         size: std::mem::size_of::<GatherGlobals>() as u64,
@@ -400,7 +421,12 @@ fn gather_grid(
     let grid_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("Gather::grid_bind_group"),
         layout: &pipelines.grid_layout,
-        entries: &[entry(0, &globals), entry(1, &data), entry(2, &out)],
+        entries: &[
+            entry(0, &globals),
+            entry(1, &data),
+            entry(2, &out),
+            entry(3, &scratch),
+        ],
     });
     let xf = scene.to_vlf;
     let mut g = GatherGlobals {
