@@ -32,7 +32,8 @@ struct Material {
     // The path tracer's lobes (vlf_core::pathtrace::material::lobes).
     w_diffuse: f32,
     alpha: f32,
-    // Weight of the baker's Lambertian lobe (vlf_core::scene::Material::diffuse_weight).
+    // Weight of the baker's Lambertian lobe, a folded rough metal included
+    // (vlf_core::bake::glossy::BakedMaterial::diffuse_weight).
     bake_diffuse: f32,
 }
 

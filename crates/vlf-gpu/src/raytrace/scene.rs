@@ -13,7 +13,8 @@
 //! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns. The path tracer reads
 //! the path tracer's lobes (`w_diffuse`, α); the final gather reads what the light field holds at
 //! a ray's hit: the triangle's planar face and the baker's diffuse weight
-//! (`vlf_core::scene::Material::diffuse_weight`). The section offsets reach the shaders as an
+//! (`vlf_core::bake::glossy::BakedMaterial::diffuse_weight`: a rough metal folded into the
+//! diffuse part included, as the CPU gather reads it; it does not depend on the direction set). The section offsets reach the shaders as an
 //! [`RtSceneInfo`] uniform ([`PackedScene::info`]).
 
 use crate::layout::RtSceneInfo;
@@ -62,12 +63,13 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
         blob.push([uv[2].x, uv[2].y, bits(face), 0.0]);
     }
     let mat_base = blob.len() as u32;
-    for (m, sm) in prep.materials.iter().zip(&prep.scene.materials) {
+    let baked = vlf_core::bake::glossy::baked_materials(&prep.scene.materials, None);
+    for (m, bm) in prep.materials.iter().zip(&baked) {
         let b = m.base_color;
         let e = m.emission;
         blob.push([b.x, b.y, b.z, bits(m.base_texture.unwrap_or(NONE))]);
         blob.push([e.x, e.y, e.z, bits(m.emissive_texture.unwrap_or(NONE))]);
-        blob.push([m.w_diffuse, m.alpha, sm.diffuse_weight(), 0.0]);
+        blob.push([m.w_diffuse, m.alpha, bm.diffuse_weight, 0.0]);
     }
     let emitter_base = blob.len() as u32;
     for e in &prep.lights.emitters {
