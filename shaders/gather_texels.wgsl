@@ -6,11 +6,26 @@
 // engine's BVH (common/bvh.wgsl). Output per texel: the estimate (rgb) and a = 1, or a = 0 when
 // the texel has no open point (the CPU's None).
 //
-// * `indirect`: cosine rays read the converged light field at their first hit: the
+// * indirect: cosine rays read the converged light field at their first hit: the
 //   propagation's (dilated) irradiance times the hit point's albedo / π, plus the mirror tiles
 //   in the ray's direction (common/mirror_tiles.wgsl, common/directions.wgsl).
-// * `direct`: light samples over the emitters and cosine rays combined with the power heuristic,
+// * direct: light samples over the emitters and cosine rays combined with the power heuristic,
 //   the sky by the cosine rays, suns by shadow rays.
+//
+// Steps. A texel's estimate is split into steps, one dispatch each, in the order the CPU draws:
+// begin (stream, class), draw_points (a batch of points each), finish_points (centroid
+// fallback, first strata), then indirect_rays (a batch of rays each), indirect_end; or
+// light_samples (batches), shuffle, cosine_rays (batches), sun_rays (batches of points),
+// direct_end. Between steps the texel's state (random stream, points, strata order, partial
+// sums in the CPU's order of addition) stays in `scratch`, so the result does not depend on
+// the batch sizes. Why: llvmpipe (lavapipe) gives every shader invocation (a SIMD group of
+// lanes) a budget of 65,535 loop trips shared by all its loops (gallivm's loop limiter,
+// LP_MAX_TGSI_LOOP_ITERATIONS) and ends every loop after one trip once it is spent, silently;
+// BVH traversals inlined in a texel's hundreds of rays spent it, and later rays found no hit
+// (the indirect light came out low). Each step checks the budget still holds at its end
+// (loops_intact) and marks the texel CUT otherwise, so vlf_gpu::gather retries with smaller
+// batches rather than return a wrong result. Real GPUs have no such budget; the steps also keep
+// every dispatch short there.
 
 #import "common/rt_scene.wgsl"
 #import "common/random.wgsl"
@@ -50,8 +65,22 @@ struct GatherGlobals {
     chart_start: u32,
     chart_tris: u32,
     field_irradiance: u32,
+    // Entries of `scratch` per invocation, and where its strata order starts.
+    scratch_stride: u32,
+    strata_at: u32,
+    // 2 (see loops_intact).
+    sentinel: u32,
+    // This step: samples k0 .. k1 of its loop, the side of the strata a shuffle makes.
+    k0: u32,
+    k1: u32,
+    side: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
+// One entry per step of the chunk, bound at a dynamic offset. (Not a second uniform for the
+// step: lavapipe 22.3 crashes on a pipeline with two uniform buffers in group 0 that also reads
+// textures.)
 @group(0) @binding(0) var<uniform> gg: GatherGlobals;
 // The grid being gathered, in sections (vec4 each; offsets in gg): its faces (5 entries per
 // BakeFace, at 0), per texel its covered part's centroid (VLF xyz) and area (w) then its face
@@ -61,9 +90,8 @@ struct GatherGlobals {
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 // The estimate per texel of the grid (rgb; a = 1 where the texel has an open point).
 @group(0) @binding(2) var<storage, read_write> gather_out: array<vec4<f32>>;
-// Per invocation of the chunk, SCRATCH entries: its sample points (xyz, MAX_POINTS entries),
-// then its strata order (x as bits, MAX_STRATA entries); big private arrays spill on real GPUs
-// anyway.
+// Per invocation of the chunk, the texel's state between steps (see HEADER); big private
+// arrays would spill on real GPUs anyway.
 @group(0) @binding(3) var<storage, read_write> scratch: array<vec4<f32>>;
 
 // Group 1: the ray-tracing scene (common/rt_scene.wgsl).
@@ -94,32 +122,83 @@ fn chart_start(f: u32) -> u32 {
     return bitcast<u32>(grid[gg.chart_start + f].x);
 }
 
-// Bounds of the per-texel arrays (checked by vlf_gpu::gather before dispatching).
-const MAX_POINTS: u32 = 256u;
-const MAX_STRATA: u32 = 256u;
+// Per invocation of the chunk, gg.scratch_stride entries of `scratch`: the texel's state
+// (HEADER entries, see TexelState), its sample points (xyz, from HEADER), its strata order (x
+// as bits, from gg.strata_at).
+const HEADER: u32 = 4u;
 const DRAWS_IN_STRATUM: u32 = 4u;
 const DRAWS_IN_TEXEL: u32 = 4u;
+// TexelState flags.
+const TEST_EACH: u32 = 1u;
+// No open point: the texel's estimate is the CPU's None (output a = 0).
+const CLOSED: u32 = 2u;
+// A step ran out of llvmpipe's loop budget (see the header): the estimate is wrong (a = 2).
+const CUT: u32 = 4u;
 
-const SCRATCH: u32 = MAX_POINTS + MAX_STRATA;
+// What a texel carries from one step to the next.
+struct TexelState {
+    rng: Rng,
+    npts: u32,
+    flags: u32,
+    // The lit side's unit normal.
+    n: vec3<f32>,
+    // The estimate so far, and the suns' sum over points (direct).
+    sum: vec3<f32>,
+    sun: vec3<f32>,
+}
 
-var<private> npts: u32;
 // This invocation's first scratch entry.
 var<private> scratch_base: u32;
 
+fn load_state() -> TexelState {
+    let a = bitcast<vec4<u32>>(scratch[scratch_base]);
+    let n = scratch[scratch_base + 1u].xyz;
+    let sum = scratch[scratch_base + 2u].xyz;
+    let sun = scratch[scratch_base + 3u].xyz;
+    return TexelState(Rng(a.x, a.y), a.z, a.w, n, sum, sun);
+}
+
+fn save_state(s: TexelState) {
+    let a = vec4<u32>(s.rng.state, s.rng.inc, s.npts, s.flags);
+    scratch[scratch_base] = bitcast<vec4<f32>>(a);
+    scratch[scratch_base + 1u] = vec4<f32>(s.n, 0.0);
+    scratch[scratch_base + 2u] = vec4<f32>(s.sum, 0.0);
+    scratch[scratch_base + 3u] = vec4<f32>(s.sun, 0.0);
+}
+
+// Whether this invocation's loops still run in full: a loop of gg.sentinel (= 2, a uniform so
+// that it cannot be unrolled) trips. llvmpipe ends every loop after one trip once the
+// invocation's budget is spent, so this runs once then.
+fn loops_intact() -> bool {
+    var trips = 0u;
+    for (var i = 0u; i < gg.sentinel; i++) {
+        trips++;
+    }
+    return trips == gg.sentinel;
+}
+
+// Ends a step: marks the texel CUT if the step's loops were cut short, and keeps its state.
+fn end_step(s: ptr<function, TexelState>) {
+    if !loops_intact() {
+        (*s).flags |= CUT;
+    }
+    save_state(*s);
+}
+
 fn point(k: u32) -> vec3<f32> {
-    return scratch[scratch_base + k].xyz;
+    return scratch[scratch_base + HEADER + k].xyz;
 }
 
 fn set_point(k: u32, p: vec3<f32>) {
-    scratch[scratch_base + k] = vec4<f32>(p, 0.0);
+    scratch[scratch_base + HEADER + k] = vec4<f32>(p, 0.0);
 }
 
 fn order_at(k: u32) -> u32 {
-    return bitcast<u32>(scratch[scratch_base + MAX_POINTS + k].x);
+    return bitcast<u32>(scratch[scratch_base + gg.strata_at + k].x);
 }
 
 fn set_order(k: u32, v: u32) {
-    scratch[scratch_base + MAX_POINTS + k] = vec4<f32>(bitcast<f32>(v), 0.0, 0.0, 0.0);
+    scratch[scratch_base + gg.strata_at + k] = vec4<f32>(bitcast<f32>(v), 0.0, 0.0, 0.0);
 }
 
 fn to_world_point(q: vec3<f32>) -> vec3<f32> {
@@ -217,60 +296,20 @@ fn classify(fi: u32, corner: vec2<f32>, n: vec3<f32>) -> u32 {
     return 2u;
 }
 
-// TexelPoints::sample: up to gg.points stratified open points of texel t into `pts`; returns
-// the lit side's unit normal.
-fn sample_points(t: u32, r: ptr<function, Rng>) -> vec3<f32> {
-    npts = 0u;
-    let texel = grid[gg.grid_texels + 2u * t];
+// Texel t of the grid: its face, side and chart corner (TexelPoints::locate).
+struct TexelAt {
+    fi: u32,
+    side: u32,
+    corner: vec2<f32>,
+}
+
+fn locate(t: u32) -> TexelAt {
     let fi = bitcast<u32>(grid[gg.grid_texels + 2u * t + 1u].x);
     let f = grid_face(fi);
     let local = t - f.texel_base;
     let tps = f.width * f.height;
-    let side = local / tps;
     let i = local % tps;
-    let corner = vec2<f32>(f32(i % f.width), f32(i / f.width));
-    let n = select(-f.normal, f.normal, side == 0u);
-    if texel.w <= 0.0 || gg.points == 0u {
-        return n;
-    }
-    let cls = classify(fi, corner, n);
-    if cls == 0u {
-        return n;
-    }
-    let test_each = cls == 2u;
-    let g = gg.points_side;
-    let inv = 1.0 / f32(g);
-    for (var k = 0u; k < gg.points; k++) {
-        let s = vec2<f32>(f32(k % g), f32(k / g % g));
-        // Draws until one lands on the face where it is open.
-        var found = false;
-        for (var draw = 0u; draw < DRAWS_IN_STRATUM + DRAWS_IN_TEXEL; draw++) {
-            if !found {
-                let j = rng_2d(r);
-                var c = corner + j;
-                if draw < DRAWS_IN_STRATUM {
-                    c = corner + (s + j) * inv;
-                }
-                if chart_inside(fi, c) {
-                    let p = chart_world(fi, c);
-                    if !test_each || is_open(p, n) {
-                        set_point(npts, p);
-                        npts++;
-                        found = true;
-                    }
-                }
-            }
-        }
-    }
-    if npts == 0u {
-        // A sliver of the face that no draw found: its covered part's centroid.
-        let p = to_world_point(texel.xyz);
-        if !test_each || is_open(p, n) {
-            set_point(0u, p);
-            npts = 1u;
-        }
-    }
-    return n;
+    return TexelAt(fi, local / tps, vec2<f32>(f32(i % f.width), f32(i / f.width)));
 }
 
 // shuffled_strata: a g × g grid of strata in a random order (into `order`).
@@ -337,17 +376,23 @@ fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
     return l;
 }
 
+// The texel of this invocation (NONE past the chunk); sets scratch_base.
 fn chunk_texel(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     let i = invocation_index(wid, nwg, lid);
     if i >= gg.texel_count {
         return NONE;
     }
-    scratch_base = i * SCRATCH;
+    scratch_base = i * gg.scratch_stride;
     return gg.texel_base + i;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Sample points (TexelPoints::sample), shared by both estimators.
+
+// Starts texel t: its random stream, lit side and class (TexelPoints::classify: enclosed
+// texels are CLOSED, those whose probes disagree test each point).
 @compute @workgroup_size(64)
-fn indirect(
+fn begin(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -356,30 +401,74 @@ fn indirect(
     if t == NONE {
         return;
     }
-    var r = rng_for_path(gg.seed, t, gg.stream);
-    let n = sample_points(t, &r);
-    if npts == 0u {
-        gather_out[t] = vec4<f32>(0.0);
+    let at = locate(t);
+    let f = grid_face(at.fi);
+    let n = select(-f.normal, f.normal, at.side == 0u);
+    let z = vec3<f32>(0.0);
+    var s = TexelState(rng_for_path(gg.seed, t, gg.stream), 0u, 0u, n, z, z);
+    if grid[gg.grid_texels + 2u * t].w <= 0.0 || gg.points == 0u {
+        s.flags = CLOSED;
+    } else {
+        let cls = classify(at.fi, at.corner, n);
+        if cls == 0u {
+            s.flags = CLOSED;
+        } else if cls == 2u {
+            s.flags = TEST_EACH;
+        }
+    }
+    end_step(&s);
+}
+
+// Points gg.k0 .. gg.k1 of gg.points: each drawn in its stratum, then anywhere in the texel,
+// until one lands on the face where it is open.
+@compute @workgroup_size(64)
+fn draw_points(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
         return;
     }
-    shuffle_strata(gg.cosine_side, &r);
-    var sum = vec3<f32>(0.0);
-    let count = npts;
-    for (var k = 0u; k < gg.cosine_rays; k++) {
-        if k < count {
-            let u = strata_point(k, gg.cosine_side, &r);
-            let dir = to_world(cosine_hemisphere(u), n);
-            let hit = trace(Ray(offset_origin(point(k), n), 0.0, dir, FAR), false);
-            if hit.tri != NONE {
-                sum += field_radiance(dir, hit);
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    var rng = s.rng;
+    let at = locate(t);
+    let test_each = (s.flags & TEST_EACH) != 0u;
+    let g = gg.points_side;
+    let inv = 1.0 / f32(g);
+    for (var k = gg.k0; k < min(gg.k1, gg.points); k++) {
+        let st = vec2<f32>(f32(k % g), f32(k / g % g));
+        var found = false;
+        for (var draw = 0u; draw < DRAWS_IN_STRATUM + DRAWS_IN_TEXEL; draw++) {
+            if !found {
+                let j = rng_2d(&rng);
+                var c = at.corner + j;
+                if draw < DRAWS_IN_STRATUM {
+                    c = at.corner + (st + j) * inv;
+                }
+                if chart_inside(at.fi, c) {
+                    let p = chart_world(at.fi, c);
+                    if !test_each || is_open(p, s.n) {
+                        set_point(s.npts, p);
+                        s.npts++;
+                        found = true;
+                    }
+                }
             }
         }
     }
-    gather_out[t] = vec4<f32>(sum * (PI / f32(npts)), 1.0);
+    s.rng = rng;
+    end_step(&s);
 }
 
+// After the draws: a texel no draw found falls back to its covered part's centroid (or is
+// CLOSED); then the strata of side gg.side are shuffled for the first rays.
 @compute @workgroup_size(64)
-fn direct(
+fn finish_points(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -388,22 +477,139 @@ fn direct(
     if t == NONE {
         return;
     }
-    var r = rng_for_path(gg.seed, t, gg.stream);
-    let n = sample_points(t, &r);
-    if npts == 0u {
-        gather_out[t] = vec4<f32>(0.0);
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
         return;
     }
-    let n_l = gg.light_samples;
-    let n_b = gg.cosine_rays;
-    let fl = f32(n_l);
-    let fb = f32(n_b);
-    var sum = vec3<f32>(0.0);
-    // Light samples.
-    shuffle_strata(gg.light_side, &r);
-    for (var k = 0u; k < n_l; k++) {
-        let p = point(k % npts);
-        let u = strata_point(k, gg.light_side, &r);
+    var rng = s.rng;
+    if s.npts == 0u {
+        // A sliver of the face that no draw found: its covered part's centroid.
+        let p = to_world_point(grid[gg.grid_texels + 2u * t].xyz);
+        if (s.flags & TEST_EACH) == 0u || is_open(p, s.n) {
+            set_point(0u, p);
+            s.npts = 1u;
+        }
+    }
+    if s.npts == 0u {
+        s.flags |= CLOSED;
+    } else {
+        shuffle_strata(gg.side, &rng);
+    }
+    s.rng = rng;
+    end_step(&s);
+}
+
+// Shuffles the strata of side gg.side (the direct estimator's cosine rays).
+@compute @workgroup_size(64)
+fn shuffle(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    var rng = s.rng;
+    shuffle_strata(gg.side, &rng);
+    s.rng = rng;
+    end_step(&s);
+}
+
+// The estimate of texel t: rgb, a = 1; a = 0 without an open point; a = 2 when a step was cut.
+fn write_estimate(t: u32, s: TexelState, e: vec3<f32>) {
+    var a = 1.0;
+    var v = e;
+    if (s.flags & CLOSED) != 0u {
+        a = 0.0;
+        v = vec3<f32>(0.0);
+    }
+    if (s.flags & CUT) != 0u {
+        a = 2.0;
+    }
+    gather_out[t] = vec4<f32>(v, a);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Indirect estimator (Gatherer::indirect): one cosine ray per point.
+
+// Rays gg.k0 .. gg.k1 (of the texel's points).
+@compute @workgroup_size(64)
+fn indirect_rays(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    var rng = s.rng;
+    var sum = s.sum;
+    let n = s.n;
+    let k1 = min(gg.k1, s.npts);
+    for (var k = gg.k0; k < k1; k++) {
+        let u = strata_point(k, gg.cosine_side, &rng);
+        let dir = to_world(cosine_hemisphere(u), n);
+        let hit = trace(Ray(offset_origin(point(k), n), 0.0, dir, FAR), false);
+        if hit.tri != NONE {
+            sum += field_radiance(dir, hit);
+        }
+    }
+    s.rng = rng;
+    s.sum = sum;
+    end_step(&s);
+}
+
+@compute @workgroup_size(64)
+fn indirect_end(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    let s = load_state();
+    write_estimate(t, s, s.sum * (PI / f32(max(s.npts, 1u))));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Direct estimator (Gatherer::direct): light samples and cosine rays combined with the power
+// heuristic, the sky by the cosine rays, suns by shadow rays.
+
+// Light samples gg.k0 .. gg.k1 of gg.light_samples (stratified over the emitters' sample
+// space, paired at random with the point strata).
+@compute @workgroup_size(64)
+fn light_samples(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    var rng = s.rng;
+    let n = s.n;
+    let fl = f32(gg.light_samples);
+    let fb = f32(gg.cosine_rays);
+    for (var k = gg.k0; k < min(gg.k1, gg.light_samples); k++) {
+        let p = point(k % s.npts);
+        let u = strata_point(k, gg.light_side, &rng);
         let pe = pick_emitter_remapped(u);
         let e = blob[scene_info.emitter_base + pe.index];
         let et = bitcast<u32>(e.x);
@@ -426,18 +632,40 @@ fn direct(
         let aim = offset_origin(x, nl);
         if w > 0.0 && trace(Ray(origin, 0.0, aim - origin, 1.0), true).tri == NONE {
             let le = emission_at(et, bary.x, bary.y);
-            sum += le * (w * cos_r / (pdf_l * fl));
+            s.sum += le * (w * cos_r / (pdf_l * fl));
         }
     }
-    // Cosine rays: the sky, and emitters weighted against the light samples.
-    shuffle_strata(gg.cosine_side, &r);
-    for (var k = 0u; k < n_b; k++) {
-        let p = point(k % npts);
-        let u = strata_point(k, gg.cosine_side, &r);
+    s.rng = rng;
+    end_step(&s);
+}
+
+// Cosine rays gg.k0 .. gg.k1 of gg.cosine_rays: the sky, and emitters weighted against the
+// light samples.
+@compute @workgroup_size(64)
+fn cosine_rays(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    var rng = s.rng;
+    let n = s.n;
+    let fl = f32(gg.light_samples);
+    let fb = f32(gg.cosine_rays);
+    for (var k = gg.k0; k < min(gg.k1, gg.cosine_rays); k++) {
+        let p = point(k % s.npts);
+        let u = strata_point(k, gg.cosine_side, &rng);
         let dir = to_world(cosine_hemisphere(u), n);
         let hit = trace(Ray(offset_origin(p, n), 0.0, dir, FAR), false);
         if hit.tri == NONE {
-            sum += gg.sky.xyz * (PI / fb);
+            s.sum += gg.sky.xyz * (PI / fb);
             continue;
         }
         let ht = triangles[hit.tri];
@@ -452,23 +680,55 @@ fn direct(
         let pdf_l = emitter_pdf(ht.light, hit.t, cos_l) / scene_info.p_emitters;
         let w = power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = emission_at(hit.tri, hit.u, hit.v);
-        sum += le * (w * PI / fb);
+        s.sum += le * (w * PI / fb);
     }
-    // Suns: one shadow ray per point.
-    if scene_info.sun_count > 0u {
-        var sun = vec3<f32>(0.0);
-        for (var k = 0u; k < npts; k++) {
-            let origin = offset_origin(point(k), n);
-            for (var s = 0u; s < scene_info.sun_count; s++) {
-                let a = blob[scene_info.sun_base + 2u * s];
-                let b = blob[scene_info.sun_base + 2u * s + 1u];
-                let c = dot(n, a.xyz);
-                if c > 0.0 && trace(Ray(origin, 0.0, a.xyz, FAR), true).tri == NONE {
-                    sun += b.xyz * c;
-                }
+    s.rng = rng;
+    end_step(&s);
+}
+
+// Suns: one shadow ray per point and sun, points gg.k0 .. gg.k1.
+@compute @workgroup_size(64)
+fn sun_rays(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    var s = load_state();
+    if (s.flags & CLOSED) != 0u {
+        return;
+    }
+    for (var k = gg.k0; k < min(gg.k1, s.npts); k++) {
+        let origin = offset_origin(point(k), s.n);
+        for (var i = 0u; i < scene_info.sun_count; i++) {
+            let a = blob[scene_info.sun_base + 2u * i];
+            let b = blob[scene_info.sun_base + 2u * i + 1u];
+            let c = dot(s.n, a.xyz);
+            if c > 0.0 && trace(Ray(origin, 0.0, a.xyz, FAR), true).tri == NONE {
+                s.sun += b.xyz * c;
             }
         }
-        sum += sun / f32(npts);
     }
-    gather_out[t] = vec4<f32>(sum, 1.0);
+    end_step(&s);
+}
+
+@compute @workgroup_size(64)
+fn direct_end(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let t = chunk_texel(wid, nwg, lid);
+    if t == NONE {
+        return;
+    }
+    let s = load_state();
+    var sum = s.sum;
+    if scene_info.sun_count > 0u && s.npts > 0u {
+        sum += s.sun / f32(s.npts);
+    }
+    write_estimate(t, s, sum);
 }

@@ -178,8 +178,8 @@ pub struct MemoryReport {
 }
 
 /// The final gather (on the GPU with a device: `vlf_gpu::gather`, tested against the CPU
-/// gather; on the CPU otherwise, or when the sample counts exceed the GPU gather's bound), then
-/// the mirror tiles' resampling and the light field (`vlf_core::pipeline`).
+/// gather; on the CPU otherwise), then the mirror tiles' resampling and the light field
+/// (`vlf_core::pipeline`).
 #[allow(clippy::too_many_arguments)]
 fn finish(
     scene: &vlf_core::scene::Scene,
@@ -205,22 +205,8 @@ fn finish(
     };
     let pipelines = vlf_gpu::gather::GatherPipelines::of(ctx);
     let field = pipeline::converged(prep, params, set, &out);
-    let g = match vlf_gpu::gather::final_gather(ctx, &pipelines, scene, &field, &gp) {
-        Ok(g) => g,
-        Err(e @ vlf_gpu::gather::GpuGatherError::TooManySamples { .. }) => {
-            log::warn!("{e}: the final gather runs on the CPU");
-            return Ok(pipeline::finish(
-                scene,
-                prep,
-                params,
-                set.clone(),
-                out,
-                stats,
-                threads,
-            )?);
-        }
-        Err(e) => return Err(e).context("GPU final gather"),
-    };
+    let g = vlf_gpu::gather::final_gather(ctx, &pipelines, scene, &field, &gp)
+        .context("GPU final gather")?;
     Ok(pipeline::finish_gathered(
         scene,
         prep,

@@ -255,6 +255,18 @@ pub struct GatherGlobals {
     pub chart_start: u32,
     pub chart_tris: u32,
     pub field_irradiance: u32,
+    /// Scratch entries (vec4) per invocation, and where its strata order starts.
+    pub scratch_stride: u32,
+    pub strata_at: u32,
+    /// 2: the trip count of the shader's loop-budget check (a uniform, so not unrolled).
+    pub sentinel: u32,
+    /// The step of this entry: samples `k0 .. k1` of its loop and the side of the strata a
+    /// shuffle makes (one entry per step, bound at a dynamic offset).
+    pub k0: u32,
+    pub k1: u32,
+    pub side: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
@@ -415,7 +427,8 @@ pub fn registry() -> Vec<SharedStruct> {
         shared!(GatherGlobals in "gather_texels.wgsl" {
             sky, xf_center, xf_scale, texel_base, texel_count, stream, seed, points, points_side,
             r_close, has_tiles, light_samples, light_side, cosine_rays, cosine_side, grid_texels,
-            chart_start, chart_tris, field_irradiance,
+            chart_start, chart_tris, field_irradiance, scratch_stride, strata_at, sentinel, k0, k1,
+            side, _pad0, _pad1,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

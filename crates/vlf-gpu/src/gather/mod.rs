@@ -10,16 +10,24 @@
 //!
 //! Every texel draws the CPU's random stream in the CPU's order, so GPU and CPU estimates are
 //! the same up to f32 rounding of sin/cos/sqrt (which now and then sends a ray, or a sample
-//! point's openness probe, another way). Results do not depend on how the texels are split into
-//! dispatches: each texel's estimate depends on its index only. No atomics.
+//! point's openness probe, another way). Results do not depend on how the work is split: each
+//! texel's estimate depends on its index only. No atomics.
 //!
-//! Bind groups of both entry points (`indirect`, `direct`): 0 = [`GatherGlobals`], the grid
-//! (faces, texels, chart triangles: one buffer in sections) and the output, 1 = the ray-tracing
-//! scene (`common/rt_scene.wgsl`), 2 = the converged field: direction tables (0, 1), mirror
-//! tiles (3–5), the propagation's faces and dilated irradiance (6, one buffer). Eight storage
-//! buffers in all, the device's minimum per stage. Each invocation keeps its sample points and
-//! strata order in a scratch storage buffer (8 KiB per texel of a chunk), not in private
-//! arrays (see `gather_texels.wgsl`).
+//! **Steps.** A texel's estimate runs as a sequence of steps, one dispatch each (sample points
+//! in batches of [`GatherOptions::point_batch`], rays in batches of
+//! [`GatherOptions::ray_batch`]; the list is [`steps`]), its state kept between them in a
+//! scratch buffer, partial sums in the CPU's order of addition. One invocation tracing all of a
+//! texel's rays ran out of llvmpipe's loop budget (65,535 loop trips per shader invocation,
+//! after which every loop ends silently: see `gather_texels.wgsl`) at a few hundred rays per
+//! texel and came out low; a step checks at its end that the budget held, and a grid whose
+//! texels report a cut step is gathered again with half the batches
+//! ([`GpuGatherError::LoopBudget`] once they are single samples).
+//!
+//! Bind groups of every step: 0 = [`GatherGlobals`] (one entry per step, dynamic offset), the
+//! grid (faces, texels, chart triangles: one buffer in sections), the output and the scratch,
+//! 1 = the ray-tracing scene (`common/rt_scene.wgsl`), 2 = the converged field:
+//! direction tables (0, 1), mirror tiles (3–5), the propagation's faces and dilated irradiance
+//! (6, one buffer). Eight storage buffers in all, the device's minimum per stage.
 
 use std::sync::Arc;
 
@@ -44,15 +52,16 @@ use crate::{GpuContext, shaders};
 
 /// Invocations per workgroup (`@workgroup_size` of `gather_texels.wgsl`).
 const WORKGROUP: u32 = 64;
-/// Bounds of a texel's sample points and strata in `gather_texels.wgsl` (`MAX_POINTS`,
-/// `MAX_STRATA`).
-pub const MAX_SAMPLES: u32 = 256;
-/// Scratch entries (vec4) per invocation: sample points and strata order
-/// (`gather_texels.wgsl`'s `SCRATCH`).
-const SCRATCH: u64 = 2 * MAX_SAMPLES as u64;
+/// Scratch entries (vec4) of a texel's state before its points (`HEADER` of the shader).
+const HEADER: u32 = 4;
 /// Texels per dispatch by default: small enough that no dispatch runs for long on a software
-/// adapter (one submission each).
+/// adapter (one submission per chunk).
 pub const DEFAULT_CHUNK: u32 = 4096;
+/// Sample points per `draw_points` step by default (up to 8 draws each, each with up to 4
+/// traced probes where the texel is partly enclosed).
+pub const DEFAULT_POINT_BATCH: u32 = 8;
+/// Rays (light samples, cosine rays, points of sun rays) per step by default.
+pub const DEFAULT_RAY_BATCH: u32 = 32;
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuGatherError {
@@ -62,12 +71,10 @@ pub enum GpuGatherError {
     Scene(#[from] RaytraceError),
     #[error(transparent)]
     Upload(#[from] RenderError),
-    #[error("{what} = {count} exceeds the GPU gather's bound of {max} per texel")]
-    TooManySamples {
-        what: &'static str,
-        count: u32,
-        max: u32,
-    },
+    #[error(
+        "the GPU gather's steps ran out of the adapter's loop budget even one sample at a time"
+    )]
+    LoopBudget,
     #[error("{what} needs {bytes} bytes but the device binds at most {limit}")]
     TooLarge {
         what: &'static str,
@@ -80,13 +87,59 @@ pub enum GpuGatherError {
     Readback(#[from] wgpu::BufferAsyncError),
 }
 
+/// The shader's entry points, one pipeline each (see `gather_texels.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Entry {
+    Begin,
+    DrawPoints,
+    FinishPoints,
+    Shuffle,
+    IndirectRays,
+    IndirectEnd,
+    LightSamples,
+    CosineRays,
+    SunRays,
+    DirectEnd,
+}
+
+impl Entry {
+    const ALL: [Entry; 10] = [
+        Entry::Begin,
+        Entry::DrawPoints,
+        Entry::FinishPoints,
+        Entry::Shuffle,
+        Entry::IndirectRays,
+        Entry::IndirectEnd,
+        Entry::LightSamples,
+        Entry::CosineRays,
+        Entry::SunRays,
+        Entry::DirectEnd,
+    ];
+
+    /// The WGSL entry point.
+    pub fn name(self) -> &'static str {
+        match self {
+            Entry::Begin => "begin",
+            Entry::DrawPoints => "draw_points",
+            Entry::FinishPoints => "finish_points",
+            Entry::Shuffle => "shuffle",
+            Entry::IndirectRays => "indirect_rays",
+            Entry::IndirectEnd => "indirect_end",
+            Entry::LightSamples => "light_samples",
+            Entry::CosineRays => "cosine_rays",
+            Entry::SunRays => "sun_rays",
+            Entry::DirectEnd => "direct_end",
+        }
+    }
+}
+
 /// The gather's pipelines and bind-group layouts, created once per device ([`Self::of`]).
 pub struct GatherPipelines {
     grid_layout: wgpu::BindGroupLayout,
     scene_layout: wgpu::BindGroupLayout,
     field_layout: wgpu::BindGroupLayout,
-    indirect: wgpu::ComputePipeline,
-    direct: wgpu::ComputePipeline,
+    /// One per [`Entry`], in the order of `Entry::ALL`.
+    steps: Vec<wgpu::ComputePipeline>,
 }
 
 impl GatherPipelines {
@@ -94,7 +147,7 @@ impl GatherPipelines {
         let grid_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Gather::grid_layout"),
             entries: &[
-                uniform_entry::<GatherGlobals>(0, false),
+                uniform_entry::<GatherGlobals>(0, true),
                 storage_entry(1, true),
                 storage_entry(2, false),
                 storage_entry(3, false),
@@ -138,19 +191,21 @@ impl GatherPipelines {
             immediate_size: 0,
         });
         let module = shaders::GATHER_TEXELS.module(device);
-        let pipeline = |label, entry| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
+        let steps = Entry::ALL
+            .iter()
+            .map(|e| {
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&format!("Gather::{}_pipeline", e.name())),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(e.name()),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
             })
-        };
+            .collect();
         Self {
-            indirect: pipeline("Gather::indirect_pipeline", "indirect"),
-            direct: pipeline("Gather::direct_pipeline", "direct"),
+            steps,
             grid_layout,
             scene_layout,
             field_layout,
@@ -161,29 +216,157 @@ impl GatherPipelines {
     pub fn of(ctx: &GpuContext) -> Arc<GatherPipelines> {
         ctx.shared(|ctx| GatherPipelines::new(&ctx.device))
     }
+
+    fn pipeline(&self, e: Entry) -> &wgpu::ComputePipeline {
+        let i = Entry::ALL.iter().position(|x| *x == e).unwrap_or(0);
+        &self.steps[i]
+    }
 }
 
 /// How the gather's work is split (results do not depend on it).
 #[derive(Clone, Copy, Debug)]
 pub struct GatherOptions {
-    /// Texels per dispatch (one submission each).
+    /// Texels per chunk (one submission each; fewer when the scratch buffer would not fit one
+    /// binding).
     pub chunk: u32,
+    /// Sample points per `draw_points` step.
+    pub point_batch: u32,
+    /// Rays per ray step.
+    pub ray_batch: u32,
 }
 
 impl Default for GatherOptions {
     fn default() -> Self {
         Self {
             chunk: DEFAULT_CHUNK,
+            point_batch: DEFAULT_POINT_BATCH,
+            ray_batch: DEFAULT_RAY_BATCH,
         }
     }
 }
 
+/// Which estimator a grid runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    Indirect,
+    Direct,
+}
+
 /// What one grid's estimator is asked for.
-struct Estimator {
-    stream: u32,
-    points: u32,
-    light_samples: u32,
-    cosine_rays: u32,
+#[derive(Clone, Copy, Debug)]
+pub struct Estimator {
+    pub kind: Kind,
+    pub stream: u32,
+    /// Sample points per texel.
+    pub points: u32,
+    pub light_samples: u32,
+    pub cosine_rays: u32,
+    /// Whether the scene has suns (direct: one step per batch of points).
+    pub suns: bool,
+}
+
+impl Estimator {
+    /// The estimators of the two grids of `gp` (indirect, direct), as `vlf_core::gather`'s
+    /// `indirect` and `direct` draw them.
+    pub fn of(gp: &GatherParams, has_emitters: bool, suns: bool) -> [Estimator; 2] {
+        [
+            Estimator {
+                kind: Kind::Indirect,
+                stream: STREAM_INDIRECT,
+                points: gp.indirect_rays,
+                light_samples: 0,
+                cosine_rays: gp.indirect_rays,
+                suns: false,
+            },
+            Estimator {
+                kind: Kind::Direct,
+                stream: STREAM_DIRECT,
+                points: gp.light_samples.max(gp.direct_rays).max(1),
+                light_samples: if has_emitters { gp.light_samples } else { 0 },
+                cosine_rays: gp.direct_rays,
+                suns,
+            },
+        ]
+    }
+
+    fn light_side(&self) -> u32 {
+        strata_side(self.light_samples)
+    }
+
+    fn cosine_side(&self) -> u32 {
+        strata_side(self.cosine_rays)
+    }
+
+    /// Scratch entries (vec4) per texel: state, points, the larger strata order.
+    pub fn scratch_stride(&self) -> u32 {
+        let strata = match self.kind {
+            Kind::Indirect => self.cosine_side().pow(2),
+            Kind::Direct => self.light_side().pow(2).max(self.cosine_side().pow(2)),
+        };
+        HEADER + self.points + strata
+    }
+}
+
+/// One step: its entry point and range (see `gather_texels.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Step {
+    pub entry: Entry,
+    pub k0: u32,
+    pub k1: u32,
+    pub side: u32,
+}
+
+/// The steps of one grid's estimator, in order, with `options`' batches.
+pub fn steps(est: &Estimator, options: &GatherOptions) -> Vec<Step> {
+    let one = |entry, side| Step {
+        entry,
+        k0: 0,
+        k1: 0,
+        side,
+    };
+    let batches = |entry, count: u32, batch: u32, out: &mut Vec<Step>| {
+        let batch = batch.max(1);
+        let mut k0 = 0;
+        while k0 < count {
+            out.push(Step {
+                entry,
+                k0,
+                k1: (k0 + batch).min(count),
+                side: 0,
+            });
+            k0 += batch;
+        }
+    };
+    let mut s = vec![one(Entry::Begin, 0)];
+    batches(Entry::DrawPoints, est.points, options.point_batch, &mut s);
+    match est.kind {
+        Kind::Indirect => {
+            s.push(one(Entry::FinishPoints, est.cosine_side()));
+            batches(Entry::IndirectRays, est.points, options.ray_batch, &mut s);
+            s.push(one(Entry::IndirectEnd, 0));
+        }
+        Kind::Direct => {
+            s.push(one(Entry::FinishPoints, est.light_side()));
+            batches(
+                Entry::LightSamples,
+                est.light_samples,
+                options.ray_batch,
+                &mut s,
+            );
+            s.push(one(Entry::Shuffle, est.cosine_side()));
+            batches(
+                Entry::CosineRays,
+                est.cosine_rays,
+                options.ray_batch,
+                &mut s,
+            );
+            if est.suns {
+                batches(Entry::SunRays, est.points, options.ray_batch, &mut s);
+            }
+            s.push(one(Entry::DirectEnd, 0));
+        }
+    }
+    s
 }
 
 /// Runs the final gather over `field` on the GPU: the GPU form of
@@ -207,19 +390,6 @@ pub fn final_gather_with(
     gp: &GatherParams,
     options: &GatherOptions,
 ) -> Result<Gathered, GpuGatherError> {
-    for (what, count) in [
-        ("light samples", gp.light_samples),
-        ("direct rays", gp.direct_rays),
-        ("indirect rays", gp.indirect_rays),
-    ] {
-        if count > MAX_SAMPLES {
-            return Err(GpuGatherError::TooManySamples {
-                what,
-                count,
-                max: MAX_SAMPLES,
-            });
-        }
-    }
     let grids = Grids::new(scene, field, gp)?;
     let ps = PreparedScene::new(scene);
     let device = &ctx.device;
@@ -236,43 +406,43 @@ pub fn final_gather_with(
                 entry(3, &gpu_scene.info),
             ],
         });
-        let has_emitters = gpu_scene.packed.emitter_count > 0;
-        let n_l = if has_emitters { gp.light_samples } else { 0 };
-        let run = |grid: &Grid, pipeline: &wgpu::ComputePipeline, est: Estimator| {
-            gather_grid(
-                ctx,
-                pipelines,
-                scene,
-                field,
-                grid,
-                pipeline,
-                &est,
-                [&scene_bg, &field_bg],
-                irradiance_at,
-                options.chunk.max(1),
-            )
+        let [ind, dir] = Estimator::of(
+            gp,
+            gpu_scene.packed.emitter_count > 0,
+            gpu_scene.packed.sun_count > 0,
+        );
+        let run = |grid: &Grid, est: Estimator| {
+            let mut opts = *options;
+            loop {
+                let out = gather_grid(
+                    ctx,
+                    pipelines,
+                    scene,
+                    field,
+                    grid,
+                    &est,
+                    [&scene_bg, &field_bg],
+                    irradiance_at,
+                    &opts,
+                )?;
+                if let Some(out) = out {
+                    return Ok(out);
+                }
+                if opts.point_batch <= 1 && opts.ray_batch <= 1 {
+                    return Err(GpuGatherError::LoopBudget);
+                }
+                opts.point_batch = (opts.point_batch / 2).max(1);
+                opts.ray_batch = (opts.ray_batch / 2).max(1);
+                log::warn!(
+                    "GPU gather ({:?}): a step ran out of the adapter's loop budget; again with \
+                     {} points and {} rays per step",
+                    est.kind,
+                    opts.point_batch,
+                    opts.ray_batch
+                );
+            }
         };
-        let ind = run(
-            &grids.indirect,
-            &pipelines.indirect,
-            Estimator {
-                stream: STREAM_INDIRECT,
-                points: gp.indirect_rays,
-                light_samples: 0,
-                cosine_rays: gp.indirect_rays,
-            },
-        )?;
-        let dir = run(
-            &grids.direct,
-            &pipelines.direct,
-            Estimator {
-                stream: STREAM_DIRECT,
-                points: gp.light_samples.max(gp.direct_rays).max(1),
-                light_samples: n_l,
-                cosine_rays: gp.direct_rays,
-            },
-        )?;
-        Ok((ind, dir))
+        Ok((run(&grids.indirect, ind)?, run(&grids.direct, dir)?))
     })??;
     Ok(spec::assemble(field, grids, &ind, &dir))
 }
@@ -346,7 +516,8 @@ fn field_bind_group(
     Ok((bind_group, irradiance_at))
 }
 
-/// The estimates of every texel of `grid` (`None`: no open point).
+/// The estimates of every texel of `grid` (`None`: no open point), or `None` when a step of
+/// some texel ran out of the loop budget.
 #[allow(clippy::too_many_arguments)]
 fn gather_grid(
     ctx: &GpuContext,
@@ -354,19 +525,162 @@ fn gather_grid(
     scene: &Scene,
     field: &Converged,
     grid: &Grid,
-    pipeline: &wgpu::ComputePipeline,
     est: &Estimator,
     [scene_bg, field_bg]: [&wgpu::BindGroup; 2],
     irradiance_at: u32,
-    chunk: u32,
-) -> Result<Vec<Option<Vec3>>, GpuGatherError> {
+    options: &GatherOptions,
+) -> Result<Option<Vec<Option<Vec3>>>, GpuGatherError> {
     let device = &ctx.device;
     let atlas = &grid.atlas;
     let count = atlas.texel_count() as u32;
     if count == 0 {
-        return Ok(Vec::new());
+        return Ok(Some(Vec::new()));
     }
-    // The grid buffer's sections (see gather_texels.wgsl).
+    let (data, [grid_texels, chart_start, chart_tris]) = grid_data(grid);
+    let data = checked(device, "Gather::grid", &data, wgpu::BufferUsages::empty())?;
+    let out = checked(
+        device,
+        "Gather::out",
+        &vec![[0.0f32; 4]; count as usize],
+        wgpu::BufferUsages::COPY_SRC,
+    )?;
+    let limit = device.limits().max_storage_buffer_binding_size;
+    let chunk = chunk_texels(est, options.chunk, count, limit)?;
+    let scratch = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("Gather::scratch"),
+        size: u64::from(chunk) * u64::from(est.scratch_stride()) * 16,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let steps = steps(est, options);
+    // One GatherGlobals per step, at a dynamic offset; rewritten for every chunk.
+    let stride = device.limits().min_uniform_buffer_offset_alignment.max(256);
+    let globals = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("Gather::globals"),
+        size: u64::from(stride) * steps.len() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let grid_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("Gather::grid_bind_group"),
+        layout: &pipelines.grid_layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &globals,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<GatherGlobals>() as u64),
+                }),
+            },
+            entry(1, &data),
+            entry(2, &out),
+            entry(3, &scratch),
+        ],
+    });
+    let xf = scene.to_vlf;
+    let mut g = GatherGlobals {
+        sky: field.sky.extend(0.0).into(),
+        xf_center: xf.center.into(),
+        xf_scale: xf.scale,
+        stream: est.stream,
+        seed: SEED,
+        points: est.points,
+        points_side: strata_side(est.points),
+        r_close: grid.r_close(scene),
+        has_tiles: u32::from(field.tiles.is_some()),
+        light_samples: est.light_samples,
+        light_side: est.light_side(),
+        cosine_rays: est.cosine_rays,
+        cosine_side: est.cosine_side(),
+        grid_texels,
+        chart_start,
+        chart_tris,
+        field_irradiance: irradiance_at,
+        scratch_stride: est.scratch_stride(),
+        strata_at: HEADER + est.points,
+        sentinel: 2,
+        ..Default::default()
+    };
+    let max_groups = device.limits().max_compute_workgroups_per_dimension;
+    let mut base = 0;
+    while base < count {
+        let n = chunk.min(count - base);
+        g.texel_base = base;
+        g.texel_count = n;
+        let mut bytes = vec![0u8; stride as usize * steps.len()];
+        for (i, st) in steps.iter().enumerate() {
+            let at = i * stride as usize;
+            let e = GatherGlobals {
+                k0: st.k0,
+                k1: st.k1,
+                side: st.side,
+                ..g
+            };
+            bytes[at..at + std::mem::size_of::<GatherGlobals>()]
+                .copy_from_slice(bytemuck::bytes_of(&e));
+        }
+        ctx.queue.write_buffer(&globals, 0, &bytes);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("Gather::encoder"),
+        });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("Gather::pass"),
+                timestamp_writes: None,
+            });
+            let (gx, gy) = dispatch_2d(n, WORKGROUP, max_groups);
+            for (i, st) in steps.iter().enumerate() {
+                pass.set_pipeline(pipelines.pipeline(st.entry));
+                pass.set_bind_group(0, &grid_bg, &[i as u32 * stride]);
+                pass.set_bind_group(1, scene_bg, &[]);
+                pass.set_bind_group(2, field_bg, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
+            }
+        }
+        ctx.queue.submit(Some(encoder.finish()));
+        let _ = device.poll(wgpu::PollType::wait_indefinitely());
+        base += n;
+    }
+    let out: Vec<[f32; 4]> = read_buffer(device, &ctx.queue, &out)?;
+    let out = &out[..count as usize];
+    if out.iter().any(|e| e[3] > 1.5) {
+        return Ok(None);
+    }
+    Ok(Some(
+        out.iter()
+            .map(|e| {
+                let e = Vec4::from(*e);
+                (e.w > 0.0).then(|| e.truncate())
+            })
+            .collect(),
+    ))
+}
+
+/// Texels per chunk: `requested` (at least 1, at most `count`), fewer where the scratch buffer
+/// of `est` would exceed one binding of `limit` bytes.
+fn chunk_texels(
+    est: &Estimator,
+    requested: u32,
+    count: u32,
+    limit: u64,
+) -> Result<u32, GpuGatherError> {
+    let per_texel = u64::from(est.scratch_stride()) * 16;
+    let fit = (limit / per_texel).min(u64::from(u32::MAX)) as u32;
+    if fit == 0 {
+        return Err(GpuGatherError::TooLarge {
+            what: "Gather::scratch",
+            bytes: per_texel,
+            limit,
+        });
+    }
+    Ok(requested.max(1).min(count).min(fit))
+}
+
+/// The grid buffer's contents (see `gather_texels.wgsl`) and its section offsets (texels,
+/// chart starts, chart triangles).
+fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 3]) {
+    let atlas = &grid.atlas;
     let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&atlas.faces).to_vec();
     let grid_texels = data.len() as u32;
     for ((c, a), f) in atlas
@@ -390,102 +704,8 @@ fn gather_grid(
     data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
     let chart_tris = data.len() as u32;
     data.extend(tris);
-    let data = checked(device, "Gather::grid", &data, wgpu::BufferUsages::empty())?;
-    let out = checked(
-        device,
-        "Gather::out",
-        &vec![[0.0f32; 4]; count as usize],
-        wgpu::BufferUsages::COPY_SRC,
-    )?;
-    let scratch_bytes = u64::from(chunk.min(count)) * SCRATCH * 16;
-    let limit = device.limits().max_storage_buffer_binding_size;
-    if scratch_bytes > limit {
-        return Err(GpuGatherError::TooLarge {
-            what: "Gather::scratch",
-            bytes: scratch_bytes,
-            limit,
-        });
-    }
-    let scratch = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("Gather::scratch"),
-        size: scratch_bytes,
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
-    let globals = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("Gather::globals"),
-        size: std::mem::size_of::<GatherGlobals>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let grid_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("Gather::grid_bind_group"),
-        layout: &pipelines.grid_layout,
-        entries: &[
-            entry(0, &globals),
-            entry(1, &data),
-            entry(2, &out),
-            entry(3, &scratch),
-        ],
-    });
-    let xf = scene.to_vlf;
-    let mut g = GatherGlobals {
-        sky: field.sky.extend(0.0).into(),
-        xf_center: xf.center.into(),
-        xf_scale: xf.scale,
-        stream: est.stream,
-        seed: SEED,
-        points: est.points,
-        points_side: if est.points == 0 {
-            1
-        } else {
-            strata_side(est.points)
-        },
-        r_close: grid.r_close(scene),
-        has_tiles: u32::from(field.tiles.is_some()),
-        light_samples: est.light_samples,
-        light_side: strata_side(est.light_samples),
-        cosine_rays: est.cosine_rays,
-        cosine_side: strata_side(est.cosine_rays),
-        grid_texels,
-        chart_start,
-        chart_tris,
-        field_irradiance: irradiance_at,
-        ..Default::default()
-    };
-    let max_groups = device.limits().max_compute_workgroups_per_dimension;
-    let mut base = 0;
-    while base < count {
-        let n = chunk.min(count - base);
-        g.texel_base = base;
-        g.texel_count = n;
-        ctx.queue.write_buffer(&globals, 0, bytemuck::bytes_of(&g));
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("Gather::encoder"),
-        });
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("Gather::pass"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &grid_bg, &[]);
-            pass.set_bind_group(1, scene_bg, &[]);
-            pass.set_bind_group(2, field_bg, &[]);
-            let (gx, gy) = dispatch_2d(n, WORKGROUP, max_groups);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
-        ctx.queue.submit(Some(encoder.finish()));
-        let _ = device.poll(wgpu::PollType::wait_indefinitely());
-        base += n;
-    }
-    let out: Vec<[f32; 4]> = read_buffer(device, &ctx.queue, &out)?;
-    Ok(out
-        .iter()
-        .take(count as usize)
-        .map(|e| {
-            let e = Vec4::from(*e);
-            (e.w > 0.0).then(|| e.truncate())
-        })
-        .collect())
+    (data, [grid_texels, chart_start, chart_tris])
 }
+
+#[cfg(test)]
+mod tests;
