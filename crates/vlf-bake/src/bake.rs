@@ -157,6 +157,9 @@ pub struct EnergyReport {
 
 #[derive(Serialize)]
 pub struct GatherReport {
+    /// Where the gather ran: `gpu` (`vlf_gpu::gather`, on the bake's device) or `cpu`
+    /// (`vlf_core::gather`, on `threads` workers).
+    pub device: &'static str,
     #[serde(flatten)]
     pub stats: vlf_core::gather::GatherStats,
     /// (direct + indirect) / propagated − 1: how far the gather moved the received power
@@ -366,6 +369,7 @@ pub fn bake_scene(
         },
         resample: finished.resample,
         gather: finished.gather.map(|stats| GatherReport {
+            device: compute.kind(),
             relative_difference: stats.relative_difference(),
             stats,
         }),

@@ -144,6 +144,10 @@ fn bake_json_includes_the_memory_plan() {
     assert!(plan["k_max"].as_u64().unwrap() >= 1);
     assert!(plan["items"].as_array().unwrap().len() > 5);
     assert_eq!(plan["over_budget"].as_array().unwrap().len(), 0);
+    assert_eq!(
+        r["gather"]["device"], "cpu",
+        "the CPU path gathers on the CPU"
+    );
     // How each material's metal lobe is baked (issue 16).
     let models: Vec<_> = r["materials"]
         .as_array()
@@ -411,6 +415,48 @@ fn gpu_batch_creates_the_bake_pipelines_once() {
     assert_eq!(stdout.matches("ok       ").count(), 3, "{stdout}");
     let created = stderr.matches("created the bake pipelines").count();
     assert_eq!(created, 1, "pipelines created {created} times:\n{stderr}");
+    let _ = fs::remove_dir_all(&d);
+}
+
+/// `--device gpu` runs the final gather on the GPU (`vlf_gpu::gather`, at the default 256
+/// indirect rays per texel: no CPU fallback), plans its buffers with the bake's, and `--json`
+/// says where it ran.
+#[test]
+fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
+    if vlf_tests::gpu().is_none() {
+        return;
+    }
+    let d = scratch("gpu-gather");
+    let out = d.join("m.vlf");
+    let scene = mirror_scene();
+    let mut args = vec!["bake", s(&scene), "-o", s(&out), "--json"];
+    args.extend(&TINY[2..]);
+    args.extend(["--device", "gpu"]);
+    let o = run(&args);
+    assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["device"], "gpu");
+    assert_eq!(r["gather"]["device"], "gpu");
+    assert!(r["gather"]["covered_texels"].as_u64().unwrap() > 0);
+    assert!(
+        r["params"]["final_gather"]["indirect_rays"]
+            .as_u64()
+            .unwrap()
+            >= 256
+    );
+    let items = r["memory"]["plan"]["items"].as_array().unwrap();
+    let gather: Vec<_> = items
+        .iter()
+        .filter(|i| i["name"].as_str().unwrap().starts_with("final gather: "))
+        .collect();
+    assert!(
+        gather
+            .iter()
+            .any(|i| i["name"] == "final gather: Gather::scratch" && i["place"] == "gpu"),
+        "{gather:?}"
+    );
+    assert!(gather.iter().all(|i| i["bytes"].as_u64().unwrap() > 0));
+    assert!(out.exists());
     let _ = fs::remove_dir_all(&d);
 }
 

@@ -63,6 +63,57 @@ fn gpu_items(plan: &BakePlan) -> Vec<PlanItem> {
     items
 }
 
+/// The GPU final gather's buffers (`vlf_gpu::gather::GatherPlan`): its grids' texels counted as
+/// [`super::texel_count`] counts the propagation's, at the gather's texel sizes. They are
+/// allocated after the propagation's are freed, so adding them to the GPU total overestimates
+/// the peak a little.
+fn gather_items(
+    scene: &Scene,
+    prep: &BakeScene,
+    params: &BakeParams,
+    gp: &vlf_core::lightfield::GatherParams,
+    tile_values: u64,
+    budget: &Budget,
+) -> Vec<PlanItem> {
+    use vlf_gpu::gather::{GatherCounts, GatherOptions, GatherPlan};
+    let at = |scale: f32| {
+        super::texel_count(
+            scene,
+            &BakeParams {
+                texel_scale: scale,
+                ..params.clone()
+            },
+        )
+    };
+    let counts = GatherCounts {
+        indirect_texels: at(gp.indirect_texel_scale),
+        direct_texels: at(gp.texel_scale),
+        faces: scene.faces.len() as u64,
+        triangles: scene.triangles.len() as u64,
+        field_texels: prep.texel_count() as u64,
+        tile_values,
+        texture_texels: scene.textures.iter().map(|t| t.pixels.len() as u64).sum(),
+        materials: scene.materials.len() as u64,
+        has_emitters: scene.has_emitters(),
+        suns: !scene.suns.is_empty(),
+    };
+    let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
+    let plan = GatherPlan::new(&counts, gp, &GatherOptions::default(), limit, 256);
+    plan.buffers
+        .iter()
+        .map(|b| PlanItem {
+            bytes: b.bytes,
+            ..item(
+                &format!("final gather: {}", b.name),
+                "gpu",
+                b.elements,
+                b.element_bytes,
+                1,
+            )
+        })
+        .collect()
+}
+
 /// What the CPU path's plan needs from every transport direction's bins: the longest tile
 /// bin (≥ 1), the most triangle entries binned in one direction, and the most cells the
 /// triangles' projected bounding boxes of one direction cover (widened by one cell, as the
@@ -243,6 +294,9 @@ pub fn plan_prepared(
             item("encoded output file", "host", file, 1, 1),
         ]);
         items.extend(gpu_items(plan));
+        if let Some(gp) = &params.final_gather {
+            items.extend(gather_items(scene, prep, params, gp, tile_values, budget));
+        }
     } else {
         let n2 = u64::from(params.resolution).pow(2);
         let m2 = u64::from(params.tile).pow(2);

@@ -29,6 +29,8 @@
 //! direction tables (0, 1), mirror tiles (3–5), the propagation's faces and dilated irradiance
 //! (6, one buffer). Eight storage buffers in all, the device's minimum per stage.
 
+mod plan;
+
 use std::sync::Arc;
 
 use glam::{Vec3, Vec4};
@@ -49,6 +51,7 @@ use crate::readback::{read_buffer, storage_buffer};
 use crate::render::RenderError;
 use crate::render::upload::float_tile_textures;
 use crate::{GpuContext, shaders};
+pub use plan::{GatherBuffer, GatherCounts, GatherPlan};
 
 /// Invocations per workgroup (`@workgroup_size` of `gather_texels.wgsl`).
 const WORKGROUP: u32 = 64;
