@@ -3,10 +3,12 @@
 //!
 //! `cargo run --release -p vlf-gpu --example gather_bench -- [SCENE.gltf] [--resolution N]`
 //!
-//! Default: the Cornell box at the auto preset's gather settings (texels of 0.5 ray spacings,
-//! the indirect grid at 1, 64 light samples, 16 direct rays, 256 indirect rays), propagated on
-//! the GPU at N = 64 and 246 directions. Prints wall time and the process's CPU time (user +
-//! system, from /proc/self/stat: on a loaded machine the fairer figure) of each gather.
+//! Default: the Cornell box with the parameters `vlf-bake bake` picks for it by default
+//! (`bake::auto` at `--quality auto`: resolution, directions, gather settings), propagated on
+//! the GPU (4 iterations; `--resolution N` overrides). Prints wall time and the process's CPU
+//! time (user + system, from /proc/self/stat, lavapipe's worker threads included: on a loaded
+//! machine the fairer figure) of each gather; `GATHER_BENCH_ROUNDS=n` alternates n GPU and n
+//! CPU gathers.
 
 use std::time::Instant;
 
@@ -35,12 +37,12 @@ fn cpu_seconds() -> f64 {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut path = "assets/cornell-box/cornell-box.gltf".to_string();
-    let mut resolution = 64;
+    let mut resolution = None;
     let mut i = 0;
     while i < args.len() {
         match args[i].as_str() {
             "--resolution" => {
-                resolution = args[i + 1].parse()?;
+                resolution = Some(args[i + 1].parse()?);
                 i += 1;
             }
             p => path = p.to_string(),
@@ -48,7 +50,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         i += 1;
     }
     let scene = vlf_core::scene::load(std::path::Path::new(&path))?;
-    let mut gp = Quality::Auto.gather();
+    let auto = vlf_core::bake::auto::choose(&scene, Quality::Auto, true).params;
+    let mut gp = auto.final_gather.expect("the default bake gathers");
     if let Ok(v) = std::env::var("GATHER_BENCH_GP") {
         // texel scale, indirect texel scale, light samples, direct rays, indirect rays
         let f: Vec<f32> = v.split(',').map(|x| x.parse().unwrap()).collect();
@@ -59,13 +62,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         gp.indirect_rays = f[4] as u32;
     }
     let params = BakeParams {
-        directions: 246,
-        resolution,
+        resolution: resolution.unwrap_or(auto.resolution),
         iterations: Iterations::Fixed(4),
-        perturb: 0,
         final_gather: Some(gp),
-        ..BakeParams::paper()
+        ..auto
     };
+    println!(
+        "{path}: resolution {}, {} directions, gather {gp:?}",
+        params.resolution, params.directions
+    );
     let ctx = GpuContext::new(&DeviceOptions::default())?;
     println!("adapter: {}", ctx.summary);
     let prep = BakeScene::new(&scene, &params)?;
@@ -92,18 +97,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         Ok(g)
     };
-    let gpu = run_gpu()?;
-    if std::env::var_os("GATHER_BENCH_TWICE").is_some() {
-        run_gpu()?;
+    let run_cpu = || -> Result<_, Box<dyn std::error::Error>> {
+        let (t, c) = (Instant::now(), cpu_seconds());
+        let g = final_gather(&scene, &field, &gp, 0)?;
+        println!(
+            "CPU gather: {:.2} s wall, {:.2} s CPU ({} threads)",
+            t.elapsed().as_secs_f64(),
+            cpu_seconds() - c,
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        );
+        Ok(g)
+    };
+    let rounds: usize = std::env::var("GATHER_BENCH_ROUNDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    let (mut gpu, mut cpu) = (run_gpu()?, run_cpu()?);
+    for _ in 1..rounds {
+        gpu = run_gpu()?;
+        cpu = run_cpu()?;
     }
-    let (t, c) = (Instant::now(), cpu_seconds());
-    let cpu = final_gather(&scene, &field, &gp, 0)?;
-    println!(
-        "CPU gather: {:.2} s wall, {:.2} s CPU ({} threads)",
-        t.elapsed().as_secs_f64(),
-        cpu_seconds() - c,
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    );
     println!("CPU stats: {:?}", cpu.stats);
     println!("GPU stats: {:?}", gpu.stats);
     let (mut diff, mut total, mut beyond, mut covered) = (0.0f64, 0.0f64, 0usize, 0usize);
