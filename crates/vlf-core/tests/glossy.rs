@@ -363,3 +363,43 @@ fn folded_metal_renders_with_its_baked_albedo() {
         "diffuse weight {w}, want {want}"
     );
 }
+
+/// The metal lobe's reflectance is C = base colour × base-colour texture (the references'
+/// convention): a textured metal face reflects with the texture's mean over the face in the
+/// bake (lava-circuit's floor reflected with its white base colour factor before: too bright).
+#[test]
+fn textured_metal_reflects_with_its_texture_mean() {
+    use glam::{Vec2, Vec4};
+    use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
+    let mut scene = plane(0.0);
+    scene.materials[0].base_color = Vec3::splat(0.8);
+    scene.materials[0].base_color_texture = Some(TexRef {
+        index: 0,
+        texcoord: 0,
+    });
+    // Red: 16 × 16 squares of 0 and 1 (mean ½), green ½, blue 1.
+    let n = 16u32;
+    scene.textures.push(Texture {
+        name: None,
+        width: n,
+        height: n,
+        pixels: (0..n * n)
+            .map(|i| Vec4::new(((i % n + i / n) % 2) as f32, 0.5, 1.0, 1.0))
+            .collect(),
+        has_alpha: false,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        filter: FilterMode::Linear,
+        gltf_texture: 0,
+    });
+    for t in &mut scene.triangles {
+        t.uv = t.p.map(|p| Vec2::new(p.x, p.z) * 0.5 + 0.5);
+    }
+    let prep = BakeScene::new(&scene, &params(46, Vec3::ZERO, Iterations::Fixed(1))).unwrap();
+    let got = glam::Vec4::from(prep.specular[0]).truncate();
+    let want = Vec3::new(0.4, 0.4, 0.8);
+    assert!(
+        (got - want).abs().max_element() < 0.01,
+        "specular reflectance {got} (want {want})"
+    );
+}

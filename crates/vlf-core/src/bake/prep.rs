@@ -45,7 +45,8 @@ pub struct BakeScene {
     pub albedo: Vec<[f32; 4]>,
     /// Emitted radiance per texel (front side only; rgb, a unused).
     pub emission: Vec<[f32; 4]>,
-    /// Metal-lobe reflectance per face (rgb; zero for faces without directional tiles).
+    /// Metal-lobe reflectance per face (rgb; zero for faces without directional tiles): the
+    /// material's, times the base-colour texture's mean over the face where it has one.
     pub specular: Vec<[f32; 4]>,
     /// How each face's metal lobe is modelled ([`glossy::model`]): the faces with
     /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors or glossy.
@@ -138,6 +139,14 @@ impl BakeScene {
         let mut texel_center = vec![[0f32; 4]; n];
         let mut albedo = vec![[0f32; 4]; n];
         let mut emission = vec![[0f32; 4]; n];
+        // The metal lobe's reflectance is C = base colour × base-colour texture, like the
+        // Lambert part's: faces with tiles reflect with the texture's mean over their covered
+        // area (the renderer applies the texture per pixel).
+        let mut specular: Vec<[f32; 4]> = scene
+            .faces
+            .iter()
+            .map(|f| baked[f.material as usize].specular.extend(0.0).into())
+            .collect();
 
         for (fi, f) in scene.faces.iter().enumerate() {
             let bf = faces[fi];
@@ -188,6 +197,7 @@ impl BakeScene {
             let means = (base_tex.is_some() || emit_tex.is_some()).then(|| {
                 texture_means(scene, fi, &basis, texel_size, (w, h), [base_tex, emit_tex])
             });
+            let mut spec_tex = (Vec3::ZERO, 0f64);
             for i in 0..w * h {
                 if area[i] <= 0.0 {
                     continue;
@@ -203,7 +213,10 @@ impl BakeScene {
                 };
                 let mut base = baked[f.material as usize].diffuse;
                 if base_tex.is_some() {
-                    base *= mean(0, base_tex);
+                    let t = mean(0, base_tex);
+                    base *= t;
+                    spec_tex.0 += t * area[i] as f32;
+                    spec_tex.1 += area[i];
                 }
                 let mut emit = mat.emission;
                 if emit_tex.is_some() {
@@ -220,12 +233,11 @@ impl BakeScene {
                     }
                 }
             }
+            if spec_tex.1 > 0.0 {
+                let c = Vec4::from(specular[fi]).truncate() * (spec_tex.0 / spec_tex.1 as f32);
+                specular[fi] = c.extend(0.0).into();
+            }
         }
-        let specular = scene
-            .faces
-            .iter()
-            .map(|f| baked[f.material as usize].specular.extend(0.0).into())
-            .collect();
         let lobes = scene
             .faces
             .iter()
