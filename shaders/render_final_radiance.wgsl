@@ -245,18 +245,24 @@ fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, uv: vec2<f32
     return l;
 }
 
-fn specular_reflectance(face: u32) -> vec3<f32> {
-    return bitcast<vec3<f32>>(face_texel(face, 7u).xyz);
+// The metal lobe's reflectance of face `face` (record `f`) at texture coordinate `uv`: its
+// specular weight × base colour × base-colour texture (C of the glTF metal lobe).
+fn specular_reflectance(face: u32, f: Face, uv: vec2<f32>) -> vec3<f32> {
+    var c = bitcast<vec3<f32>>(face_texel(face, 7u).xyz);
+    if BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u {
+        c = c * surface_texture(face_texel(face, 6u).x, uv);
+    }
+    return c;
 }
 
 // The traced chain's specular radiance (rgb) reaching the eye from point `p` of non-diffuse
-// face `face` (record `f`); w = 1 where the pixel falls back to its tiles instead. Mirrored on
-// the CPU by vlf_gpu::render::mirror_trace::traced_specular.
-fn traced_specular(face: u32, f: Face, p: vec3<f32>) -> vec4<f32> {
+// face `face` (record `f`, texture coordinate `uv` at p); w = 1 where the pixel falls back to
+// its tiles instead. Mirrored on the CPU by vlf_gpu::render::mirror_trace::traced_specular.
+fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>) -> vec4<f32> {
     let d = normalize(p - g.eye.xyz);
     var n = f.normal;
     let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
-    var throughput = specular_reflectance(face);
+    var throughput = specular_reflectance(face, f, uv);
     var dir = normalize(d - 2.0 * dot(d, n) * n);
     var origin = offset_origin(p, side);
     var depth = 1u;
@@ -271,19 +277,19 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>) -> vec4<f32> {
         let q = t.p0 * b0 + t.p1 * hit.u + t.p2 * hit.v;
         let hf = load_face(hface);
         n = hf.normal;
+        var huv = vec2<f32>(0.0);
+        if is_textured(hf) {
+            let k = 3u * hit.tri;
+            huv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
+        }
         if hf.kind == FACE_DIFFUSE {
-            var uv = vec2<f32>(0.0);
-            if is_textured(hf) {
-                let k = 3u * hit.tri;
-                uv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
-            }
             let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
-            return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, uv), 0.0);
+            return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, huv), 0.0);
         }
         if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
             return vec4<f32>(0.0, 0.0, 0.0, 1.0);
         }
-        throughput = throughput * specular_reflectance(hface);
+        throughput = throughput * specular_reflectance(hface, hf, huv);
         let off = select(-n, n, dot(n, -dir) > 0.0);
         dir = normalize(dir - 2.0 * dot(dir, n) * n);
         origin = offset_origin(q, off);
@@ -306,7 +312,7 @@ fn shade_surface(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, px: vec2<i32>)
     if SPECULAR && f.kind != FACE_DIFFUSE {
         var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
         if TRACING {
-            traced = traced_specular(face, f, p);
+            traced = traced_specular(face, f, p, uv);
         }
         if traced.w != 0.0 {
             l += specular_radiance(face, f.normal, p, px);

@@ -91,6 +91,69 @@ fn mirror_under_uniform_sky_reads_reflectance_times_sky_exactly() {
     eprintln!("mirror under sky: traced exact; tiles alone off by up to {tiles_off:.3e}");
 }
 
+/// The metal lobe's reflectance is C = base colour × base-colour texture: a textured mirror
+/// under a uniform sky reads ρ × texture(uv) × sky at every pixel (the texture was ignored
+/// before: ρ × sky everywhere).
+#[test]
+fn textured_mirror_reads_reflectance_times_texture_times_sky() {
+    use glam::Vec2;
+    use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
+    let Some(ctx) = gpu() else { return };
+    let (rho, sky) = (Vec3::new(0.9, 0.6, 0.3), Vec3::new(1.0, 2.0, 3.0));
+    let mut b = SceneBuilder::new();
+    let m = b.mirror("mirror", rho);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    let mut scene = b.build("textured mirror under sky");
+    scene.materials[m as usize].base_color_texture = Some(TexRef {
+        index: 0,
+        texcoord: 0,
+    });
+    let n = 4u32;
+    scene.textures.push(Texture {
+        name: None,
+        width: n,
+        height: n,
+        pixels: (0..n * n)
+            .map(|i| match (i % n + i / n) % 2 {
+                0 => Vec4::new(1.0, 0.5, 0.25, 1.0),
+                _ => Vec4::new(0.1, 0.2, 0.9, 1.0),
+            })
+            .collect(),
+        has_alpha: false,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        filter: FilterMode::Linear,
+        gltf_texture: 0,
+    });
+    for t in &mut scene.triangles {
+        t.uv = t.p.map(|p| Vec2::new(p.x, p.z) * 0.5 + 0.5);
+    }
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(sky)).unwrap();
+    let offsets = lf.shading.texture_offsets();
+    let cam = world_camera(&scene, Vec3::new(0.3, 1.5, 0.8), Vec3::ZERO, 60.0);
+    let (on, _) = frames(ctx, &lf, &cam);
+    let (mut mirror_pixels, mut coloured) = (0, 0);
+    for i in 0..(W * H) as usize {
+        if on.face_id[i] == NO_FACE {
+            continue;
+        }
+        mirror_pixels += 1;
+        let tex = lf.shading.sample(0, Vec2::from(on.uv[i]), &offsets);
+        let want = rho * tex * sky;
+        let got = rgb(on.radiance[i]);
+        assert!(
+            (got - want).abs().max_element() <= 1e-6 * want.max_element(),
+            "pixel {i}: {got} vs {want}"
+        );
+        coloured += usize::from((want - rho * sky).abs().max_element() > 0.1);
+    }
+    assert!(mirror_pixels > 1000, "{mirror_pixels} mirror pixels");
+    assert!(
+        coloured > mirror_pixels / 2,
+        "{coloured} of {mirror_pixels} coloured"
+    );
+}
+
 /// Mirror hits of the view ray from `eye` through `p` (world, on the lower mirror y = 0)
 /// between the mirrors y = 0 and y = 1 spanning [-1, 1]²: `Some(k)` when it leaves for the sky
 /// after k mirrors (k ≤ MAX_DEPTH), `None` when the chain reaches the bound; also whether it
@@ -200,8 +263,9 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
             let bf = &lf.faces[face as usize];
             let side = visible_side(bf, cam.position, p);
             let uv = on.uv[i].into();
-            let traced = mirror_trace::traced_specular(&lf, &bvh, &offsets, cam.position, face, p)
-                .expect("a convex mirror block: every chain ends on a diffuse face or the sky");
+            let traced =
+                mirror_trace::traced_specular(&lf, &bvh, &offsets, cam.position, face, p, uv)
+                    .expect("a convex mirror block: every chain ends on a diffuse face or the sky");
             let want = surface_radiance(&lf, &offsets, face, side, p, uv) + traced;
             let got = rgb(on.radiance[i]);
             off_by.push((got - want).abs().max_element() / want.max_element().max(1e-3));

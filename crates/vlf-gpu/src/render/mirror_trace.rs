@@ -6,9 +6,9 @@
 //! `traced_specular`, through the shared traversal of `shaders/common/bvh.wgsl`):
 //!
 //! * the chain follows further mirror faces, multiplying their reflectance (specular weight ×
-//!   base colour, [`specular_reflectance`]), up to [`MAX_DEPTH`] mirrors including the visible
-//!   one — the bound and the rules of `vlf_core::resample` (issue 15 part 2), which computes the
-//!   same chain once per tile cell;
+//!   base colour × base-colour texture at the point, [`specular_reflectance`]), up to
+//!   [`MAX_DEPTH`] mirrors including the visible one — the bound and the rules of
+//!   `vlf_core::resample` (issue 15 part 2), which computes the same chain once per tile cell;
 //! * at the first diffuse face it reads the light field exactly as pass 5 reads a visible point
 //!   (`Le(uv)` on the front, `ρ_d(uv)/π ·` atlas irradiance, at the hit's own point and uv:
 //!   the same WGSL function);
@@ -45,10 +45,13 @@ pub fn has_mirrors(lf: &LightField) -> bool {
     lf.faces.iter().any(|f| f.kind != FACE_DIFFUSE)
 }
 
-/// Mirror reflectance of face `face` ([`super::upload::specular_reflectance`]).
-pub fn specular_reflectance(lf: &LightField, face: u32) -> Vec3 {
+/// Mirror reflectance of face `face` at texture coordinate `uv`: the face record's
+/// ([`super::upload::specular_reflectance`]) × the base-colour texture, as pass 5 computes it
+/// (C of the glTF metal lobe). `offsets` is `lf.shading.texture_offsets()`.
+pub fn specular_reflectance(lf: &LightField, offsets: &[u64], face: u32, uv: Vec2) -> Vec3 {
     let f = &lf.faces[face as usize];
-    super::upload::specular_reflectance(f, &lf.shading.materials[f.material as usize])
+    let m = &lf.shading.materials[f.material as usize];
+    super::upload::specular_reflectance(f, m) * lf.shading.sample(m.base_color_texture, uv, offsets)
 }
 
 /// The BVH pass 5 traces: `lf`'s triangles (VLF coordinates), `material` = face,
@@ -117,8 +120,8 @@ impl GpuMirrorScene {
 }
 
 /// CPU specification of pass 5's traced branch: the specular radiance reaching an eye at `eye`
-/// from the visible point `p` of non-diffuse face `face` along the traced chain (see the module
-/// docs), in f32 in the shader's order of operations; `None` where the pixel falls back to its
+/// from the visible point `p` (texture coordinate `uv`) of non-diffuse face `face` along the
+/// traced chain (see the module docs), in f32 in the shader's order of operations; `None` where the pixel falls back to its
 /// tiles. `bvh` is [`build_bvh`]`(lf)`, `offsets` `lf.shading.texture_offsets()`.
 pub fn traced_specular(
     lf: &LightField,
@@ -127,12 +130,13 @@ pub fn traced_specular(
     eye: Vec3,
     face: u32,
     p: Vec3,
+    uv: Vec2,
 ) -> Option<Vec3> {
     let f = &lf.faces[face as usize];
     let n = f.normal();
     let d = (p - eye).normalize();
     let side = if visible_side(f, eye, p) == 0 { n } else { -n };
-    let mut throughput = specular_reflectance(lf, face);
+    let mut throughput = specular_reflectance(lf, offsets, face, uv);
     let mut dir = (d - 2.0 * d.dot(n) * n).normalize();
     let mut origin = offset_ray_origin(p, side);
     let mut depth = 1;
@@ -149,15 +153,15 @@ pub fn traced_specular(
         let q = p0 * b0 + p1 * b1 + p2 * b2;
         let f = &lf.faces[face as usize];
         let n = f.normal();
+        let uv = lf.shading.uvs[t.prim as usize].map(Vec2::from);
+        let uv = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
         match f.kind {
             FACE_DIFFUSE => {
-                let uv = lf.shading.uvs[t.prim as usize].map(Vec2::from);
-                let uv = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
                 let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
                 return Some(throughput * surface_radiance(lf, offsets, face, side, q, uv));
             }
             FACE_MIRROR if depth < MAX_DEPTH => {
-                throughput *= specular_reflectance(lf, face);
+                throughput *= specular_reflectance(lf, offsets, face, uv);
                 let side = if n.dot(-dir) > 0.0 { n } else { -n };
                 dir = (dir - 2.0 * dir.dot(n) * n).normalize();
                 origin = offset_ray_origin(q, side);

@@ -222,9 +222,10 @@ pub fn face_flags(m: &SurfaceMaterial) -> u32 {
     let mut flags = 0;
     if rho.max_element() > 0.0 {
         flags |= FLAG_DIFFUSE;
-        if m.base_color_texture != NO_TEXTURE {
-            flags |= FLAG_BASE_TEXTURE;
-        }
+    }
+    // The base-colour texture colours the diffuse part and the metal lobe alike.
+    if m.base_color_texture != NO_TEXTURE {
+        flags |= FLAG_BASE_TEXTURE;
     }
     if emissive {
         flags |= FLAG_EMISSIVE;
@@ -235,8 +236,9 @@ pub fn face_flags(m: &SurfaceMaterial) -> u32 {
     flags
 }
 
-/// Mirror reflectance of face `f` with material `m`: specular weight × base colour (0 for
-/// diffuse faces; the base-colour texture is not applied, as in `vlf_core::resample`).
+/// Mirror reflectance factor of face `f` with material `m`: specular weight × base colour (0
+/// for diffuse faces); pass 5 multiplies it by the base-colour texture at the pixel
+/// ([`super::mirror_trace::specular_reflectance`]).
 pub fn specular_reflectance(f: &BakeFace, m: &SurfaceMaterial) -> glam::Vec3 {
     glam::Vec3::from(m.base_color) * f.specular
 }
