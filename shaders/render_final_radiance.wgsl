@@ -138,7 +138,7 @@ fn face_texel(face: u32, k: u32) -> vec4<u32> {
 }
 
 // Texels 0–5 of a face record as a Face.
-fn face_from(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, r4: vec4<u32>,
+fn face_from_record(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, r4: vec4<u32>,
              r5: vec4<u32>) -> Face {
     return Face(
         bitcast<vec3<f32>>(r0.xyz), r0.w & KIND_MASK, r0.w & ~KIND_MASK,
@@ -151,7 +151,7 @@ fn face_from(r0: vec4<u32>, r1: vec4<u32>, r2: vec4<u32>, r3: vec4<u32>, r4: vec
 }
 
 fn load_face(face: u32) -> Face {
-    return face_from(face_texel(face, 0u), face_texel(face, 1u), face_texel(face, 2u),
+    return face_from_record(face_texel(face, 0u), face_texel(face, 1u), face_texel(face, 2u),
         face_texel(face, 3u), face_texel(face, 4u), face_texel(face, 5u));
 }
 
@@ -401,7 +401,7 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
 // Writes only its colour target, so the depth and stencil tests run before it.
 @fragment
 fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
-    let f = face_from(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
+    let f = face_from_record(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
     let px = vec2<i32>(vec2<u32>(in.clip.xy));
     return present(shade_surface(in.face, f, in.position, in.uv, px));
 }
