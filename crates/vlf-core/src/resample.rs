@@ -120,7 +120,7 @@ pub fn resample_tiles(
     let ps = PreparedScene::new(scene);
     let lobes = Lobes::new(&prep.lobes);
     let field = Field::new(
-        scene,
+        &ps,
         atlas,
         irradiance,
         Some(Tiles::new(index, values, directions)),

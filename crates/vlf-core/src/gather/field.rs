@@ -1,21 +1,24 @@
 //! The converged light field as a gather ray reads it at its first hit: the propagation's
 //! irradiance atlas (times the hit point's own albedo, texture included) for the diffuse part,
 //! and the sparse mirror tiles in the ray's direction for the specular part — the same lookups
-//! the renderer's pass 5 does ([`Tiles::radiance_towards`] is its CPU form).
+//! the renderer's pass 5 does ([`Tiles::radiance_towards`] is its CPU form) — except that the
+//! atlas' bilinear filter never reaches across a contact ([`Contacts`]).
 
 use glam::{Vec2, Vec3, Vec4};
 
 use crate::bake::BakeScene;
 use crate::directions::DirectionSet;
 use crate::lightfield::{BakeFace, TileIndex};
-use crate::pathtrace::{Hit, PreparedScene};
+use crate::pathtrace::geometry::offset_ray_origin;
+use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::psf::PsfFrame;
-use crate::scene::Scene;
+use crate::scene::{Scene, Similarity};
 
 /// A converged light field as seen from a traced ray: an atlas of irradiance per texel side and,
 /// for non-diffuse faces, their directional tiles. Radiance leaving a surface point towards a
 /// ray's origin is the emission (front side) + the diffuse albedo (texture at the point's own
-/// uv) / π × the atlas irradiance (bilinear) + the face's specular tiles in that direction.
+/// uv) / π × the atlas irradiance (bilinear within the point's side of any contact) + the
+/// face's specular tiles in that direction.
 pub struct Field<'a> {
     pub scene: &'a Scene,
     /// The atlas' charts.
@@ -24,6 +27,9 @@ pub struct Field<'a> {
     /// covered texels.
     pub irradiance: Vec<[f32; 4]>,
     pub tiles: Option<Tiles<'a>>,
+    /// Where the atlas' bilinear quads straddle a contact, and the BVH that tells which of their
+    /// texels a point sees.
+    pub contacts: Contacts<'a>,
 }
 
 /// Where a ray landed: the hit point in VLF and world coordinates, its face, texture coordinates
@@ -39,9 +45,10 @@ pub struct SurfaceHit {
 }
 
 impl<'a> Field<'a> {
-    /// A field over `atlas` with undilated `irradiance` (dilated here).
+    /// A field over `atlas` with undilated `irradiance` (dilated here) of the scene of `ps`,
+    /// read bilinearly everywhere as the renderer reads it.
     pub fn new(
-        scene: &'a Scene,
+        ps: &'a PreparedScene<'a>,
         atlas: &'a BakeScene,
         irradiance: &[[f32; 4]],
         tiles: Option<Tiles<'a>>,
@@ -49,11 +56,20 @@ impl<'a> Field<'a> {
         let mut irradiance = irradiance.to_vec();
         crate::bake::dilate(atlas, &mut irradiance);
         Self {
-            scene,
+            scene: ps.scene,
             atlas,
             irradiance,
             tiles,
+            contacts: Contacts::none(&ps.bvh, ps.scene, atlas),
         }
+    }
+
+    /// The field with reads that stop at contacts ([`Field::irradiance_at`]): for a propagated
+    /// atlas, whose texels at a contact hold light from both sides. Contacts are found on
+    /// `threads` workers (0 = all cores).
+    pub fn with_contacts(mut self, ps: &'a PreparedScene<'a>, threads: usize) -> Self {
+        self.contacts = Contacts::new(&ps.bvh, ps.scene, self.atlas, threads);
+        self
     }
 
     /// The surface `hit` of a ray travelling along `dir` (world) in the BVH of `ps`.
@@ -92,8 +108,64 @@ impl<'a> Field<'a> {
                 .bilinear(s.uv)
                 .truncate();
         }
+        rho * std::f32::consts::FRAC_1_PI * self.irradiance_at(s)
+    }
+
+    /// The atlas' irradiance at `s`: bilinear over the four texels around it as the renderer
+    /// reads it, except near a contact (a wall standing on the face, a box's bottom lying on
+    /// it: [`Contacts`]). There the quad's texels that are not cut and whose centres `s` sees
+    /// count (weights renormalised); when there are none, such texels within two texels of `s`
+    /// (tent weights); then the quad's texels that `s` sees, cut or not; the texel under `s`
+    /// when it sees none.
+    /// A floor point inside a box standing on the floor so reads neither the lit floor outside
+    /// nor the texels at the box's foot (which hold light from both sides), and a floor point
+    /// outside not the dark ones.
+    pub fn irradiance_at(&self, s: &SurfaceHit) -> Vec3 {
         let f = &self.atlas.faces[s.face as usize];
-        rho * std::f32::consts::FRAC_1_PI * chart_bilinear(f, &self.irradiance, s.side, s.vlf)
+        let q = Quad::at(f, s.side, s.vlf);
+        let at = |t: u32| Vec4::from(self.irradiance[t as usize]).truncate();
+        if self.contacts.quad_is_clear(&q) {
+            return q.bilinear(&self.irradiance);
+        }
+        let n = if s.side == 0 { f.normal() } else { -f.normal() };
+        let from = self.contacts.lift(f, s.world, n);
+        let sees = |t: u32| self.contacts.sees(from, self.contacts.centre(f, t, n));
+        // The quad's texels that `s` sees: per class (uncut, cut), Σ w·E and Σ w.
+        let mut quad = [(Vec3::ZERO, 0.0f32); 2];
+        for (c, &t) in q.texel.iter().enumerate() {
+            let w = q.weight(c);
+            if w > 0.0 && sees(t) {
+                let sum = &mut quad[usize::from(self.contacts.cut(t))];
+                sum.0 += at(t) * w;
+                sum.1 += w;
+            }
+        }
+        if quad[0].1 > 0.0 {
+            return quad[0].0 / quad[0].1;
+        }
+        // Uncut texels it sees within two texels (tent weights).
+        let c = chart_coords(f, s.vlf);
+        let base = f.texel_base + s.side * f.width * f.height;
+        let (ci, cj) = (c.x.floor() as i64, c.y.floor() as i64);
+        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        for j in (cj - 2).max(0)..=(cj + 2).min(i64::from(f.height) - 1) {
+            for i in (ci - 2).max(0)..=(ci + 2).min(i64::from(f.width) - 1) {
+                let d = (Vec2::new(i as f32 + 0.5, j as f32 + 0.5) - c).abs();
+                let w = (1.0 - d.x * 0.5).max(0.0) * (1.0 - d.y * 0.5).max(0.0);
+                let t = base + j as u32 * f.width + i as u32;
+                if w > 0.0 && !self.contacts.cut(t) && sees(t) {
+                    sum += at(t) * w;
+                    wsum += w;
+                }
+            }
+        }
+        if wsum > 0.0 {
+            sum / wsum
+        } else if quad[1].1 > 0.0 {
+            quad[1].0 / quad[1].1
+        } else {
+            at(q.texel[q.nearest()])
+        }
     }
 
     /// Emitted radiance of `s` (the front side emits).
@@ -126,6 +198,245 @@ impl<'a> Field<'a> {
     }
 }
 
+/// The four texels a bilinear read of face `f`'s `side` at plane point `p` blends (indices
+/// clamped to the chart, so never across faces or sides), in the order (i0, j0), (i1, j0),
+/// (i0, j1), (i1, j1), and the weights' fractions.
+pub struct Quad {
+    pub texel: [u32; 4],
+    pub fx: f32,
+    pub fy: f32,
+    /// Whether the quad spans two columns (i1 > i0) and two rows (j1 > j0).
+    pub wide: bool,
+    pub tall: bool,
+}
+
+impl Quad {
+    pub fn at(f: &BakeFace, side: u32, p: Vec3) -> Self {
+        let c = chart_coords(f, p) - Vec2::splat(0.5);
+        let (x0, y0) = (c.x.floor(), c.y.floor());
+        let ci = |i: f32| (i as i32).clamp(0, f.width as i32 - 1) as u32;
+        let cj = |j: f32| (j as i32).clamp(0, f.height as i32 - 1) as u32;
+        let base = f.texel_base + side * f.width * f.height;
+        let (i0, i1, j0, j1) = (ci(x0), ci(x0 + 1.0), cj(y0), cj(y0 + 1.0));
+        let t = |i: u32, j: u32| base + j * f.width + i;
+        Self {
+            texel: [t(i0, j0), t(i1, j0), t(i0, j1), t(i1, j1)],
+            fx: c.x - x0,
+            fy: c.y - y0,
+            wide: i1 > i0,
+            tall: j1 > j0,
+        }
+    }
+
+    /// The bilinear blend of `values` (per texel of the atlas).
+    pub fn bilinear(&self, values: &[[f32; 4]]) -> Vec3 {
+        let at = |c: usize| Vec4::from(values[self.texel[c] as usize]).truncate();
+        let top = at(0).lerp(at(1), self.fx);
+        let bottom = at(2).lerp(at(3), self.fx);
+        top.lerp(bottom, self.fy)
+    }
+
+    /// Bilinear weight of corner `c`.
+    pub fn weight(&self, c: usize) -> f32 {
+        let wx = if c & 1 == 1 { self.fx } else { 1.0 - self.fx };
+        let wy = if c & 2 == 2 { self.fy } else { 1.0 - self.fy };
+        wx * wy
+    }
+
+    /// The corner whose texel holds the read point.
+    pub fn nearest(&self) -> usize {
+        usize::from(self.fx >= 0.5) | (usize::from(self.fy >= 0.5) << 1)
+    }
+}
+
+/// Where an atlas' texels meet a contact (a wall standing on their face, a solid lying on it).
+/// Per texel side, four bits say whether its centre and the centres of its neighbours at
+/// (+1, 0), (0, +1), (+1, +1) see each other, and whether (+1, 0) sees (0, +1); a fifth that
+/// the texel is *cut*: its covered centroid does not see one of the four points inset a tenth
+/// of a texel from its corners that lie on its face, or one of its 8 neighbours' centres (a
+/// texel next to a contact holds light the contact's other side sent it through the
+/// propagation's rays that cross it there). Every segment is lifted a thousandth of a
+/// texel off the side. A bilinear quad whose six segments are clear and none of whose texels
+/// is cut is read as it is, so a face with nothing standing on it reads exactly as before.
+pub struct Contacts<'a> {
+    bvh: &'a Bvh,
+    xf: Similarity,
+    /// Bits per texel: [`RIGHT`], [`UP`], [`DIAGONAL`], [`ANTI_DIAGONAL`], [`CUT`].
+    bits: Vec<u8>,
+}
+
+const RIGHT: u8 = 1;
+const UP: u8 = 2;
+const DIAGONAL: u8 = 4;
+const ANTI_DIAGONAL: u8 = 8;
+const CUT: u8 = 16;
+/// How far segments between texel points are lifted off their side (texels).
+const LIFT: f32 = 1e-3;
+
+impl<'a> Contacts<'a> {
+    /// No contacts: every quad reads bilinearly.
+    fn none(bvh: &'a Bvh, scene: &Scene, atlas: &BakeScene) -> Self {
+        let all = RIGHT | UP | DIAGONAL | ANTI_DIAGONAL;
+        Self {
+            bvh,
+            xf: scene.to_vlf,
+            bits: vec![all; atlas.texel_count()],
+        }
+    }
+
+    fn new(bvh: &'a Bvh, scene: &Scene, atlas: &BakeScene, threads: usize) -> Self {
+        let mut c = Self {
+            bvh,
+            xf: scene.to_vlf,
+            bits: Vec::new(),
+        };
+        let faces = crate::bake::reference::texel_faces(atlas);
+        let charts = Charts::new(scene, atlas);
+        let c_ref = &c;
+        let bits = crate::par::map(atlas.texel_count(), threads, 256, |t| {
+            let c = c_ref;
+            let fi = faces[t] as usize;
+            let f = &atlas.faces[fi];
+            let local = t as u32 - f.texel_base;
+            let side = local / f.texels_per_side();
+            let i = local % f.texels_per_side();
+            let (x, y) = (i % f.width, i / f.width);
+            let n = if side == 0 { f.normal() } else { -f.normal() };
+            // Segments between centres off the face (beyond a room's edge, say) count as clear.
+            let on_face = |dx: u32, dy: u32| {
+                charts.inside(fi, Vec2::new((x + dx) as f32 + 0.5, (y + dy) as f32 + 0.5))
+            };
+            let p = |dx: u32, dy: u32| c.centre(f, t as u32 + dy * f.width + dx, n);
+            let clear = |a: (u32, u32), b: (u32, u32)| {
+                !on_face(a.0, a.1) || !on_face(b.0, b.1) || c.sees(p(a.0, a.1), p(b.0, b.1))
+            };
+            let (wide, tall) = (x + 1 < f.width, y + 1 < f.height);
+            let mut bits = 0;
+            if !wide || clear((0, 0), (1, 0)) {
+                bits |= RIGHT;
+            }
+            if !tall || clear((0, 0), (0, 1)) {
+                bits |= UP;
+            }
+            if !(wide && tall) || clear((0, 0), (1, 1)) {
+                bits |= DIAGONAL;
+            }
+            if !(wide && tall) || clear((1, 0), (0, 1)) {
+                bits |= ANTI_DIAGONAL;
+            }
+            if atlas.texel_area[t] > 0.0 {
+                let centroid = c.xf.inverse(Vec4::from(atlas.texel_center[t]).truncate());
+                let from = c.lift(f, centroid, n);
+                let corner = Vec2::new(x as f32, y as f32);
+                let corners = [(0.1, 0.1), (0.9, 0.1), (0.1, 0.9), (0.9, 0.9)]
+                    .into_iter()
+                    .map(|(a, b)| corner + Vec2::new(a, b))
+                    .filter(|&q| charts.inside(fi, q));
+                let neighbours = (0..9)
+                    .map(|k| corner + Vec2::new((k % 3) as f32 - 0.5, (k / 3) as f32 - 0.5))
+                    .filter(|&q| q != corner + Vec2::splat(0.5) && charts.inside(fi, q));
+                let cut = corners
+                    .chain(neighbours)
+                    .any(|q| !c.sees(from, c.lift(f, c.chart_world(f, q), n)));
+                if cut {
+                    bits |= CUT;
+                }
+            }
+            bits
+        });
+        c.bits = bits;
+        c
+    }
+
+    /// Whether the six segments between `q`'s texel centres are all clear and none of its
+    /// texels is cut.
+    fn quad_is_clear(&self, q: &Quad) -> bool {
+        let b = |c: usize| self.bits[q.texel[c] as usize];
+        if (b(0) | b(1) | b(2) | b(3)) & CUT != 0 {
+            return false;
+        }
+        let mut ok = true;
+        if q.wide {
+            ok &= b(0) & b(2) & RIGHT != 0;
+        }
+        if q.tall {
+            ok &= b(0) & b(1) & UP != 0;
+        }
+        if q.wide && q.tall {
+            ok &= b(0) & (DIAGONAL | ANTI_DIAGONAL) == DIAGONAL | ANTI_DIAGONAL;
+        }
+        ok
+    }
+
+    /// Whether texel `t` is cut by a contact.
+    fn cut(&self, t: u32) -> bool {
+        self.bits[t as usize] & CUT != 0
+    }
+
+    /// World point `p` of face `f` lifted off the side with unit normal `n`.
+    fn lift(&self, f: &BakeFace, p: Vec3, n: Vec3) -> Vec3 {
+        offset_ray_origin(p + n * (LIFT * f.texel_size / self.xf.scale), n)
+    }
+
+    /// World point of face `f`'s plane at chart coordinates `c` (texel units).
+    fn chart_world(&self, f: &BakeFace, c: Vec2) -> Vec3 {
+        let c = c * f.texel_size;
+        self.xf
+            .inverse(Vec3::from(f.origin) + Vec3::from(f.u) * c.x + Vec3::from(f.v) * c.y)
+    }
+
+    /// The lifted world centre of the square of texel `t` (index into the atlas) of face `f`.
+    fn centre(&self, f: &BakeFace, t: u32, n: Vec3) -> Vec3 {
+        let i = (t - f.texel_base) % f.texels_per_side();
+        let c = Vec2::new((i % f.width) as f32 + 0.5, (i / f.width) as f32 + 0.5);
+        self.lift(f, self.chart_world(f, c), n)
+    }
+
+    /// Whether nothing lies between world points `a` and `b`.
+    fn sees(&self, a: Vec3, b: Vec3) -> bool {
+        a == b || !self.bvh.occluded(&Ray::new(a, b - a, 1.0))
+    }
+}
+
+/// Chart-space triangles (texel units) of every face of an atlas, to tell whether a chart
+/// point lies on its face.
+pub struct Charts {
+    tris: Vec<Vec<[Vec2; 3]>>,
+}
+
+impl Charts {
+    pub fn new(scene: &Scene, atlas: &BakeScene) -> Self {
+        let xf = scene.to_vlf;
+        let tris = atlas
+            .faces
+            .iter()
+            .enumerate()
+            .map(|(fi, f)| {
+                scene
+                    .face_triangles(fi)
+                    .iter()
+                    .map(|t| t.p.map(|p| chart_coords(f, xf.apply(p))))
+                    .collect()
+            })
+            .collect();
+        Self { tris }
+    }
+
+    /// The chart-space triangles of `face` (what the GPU gather uploads).
+    pub fn triangles(&self, face: usize) -> &[[Vec2; 3]] {
+        &self.tris[face]
+    }
+
+    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
+    pub fn inside(&self, face: usize, c: Vec2) -> bool {
+        self.tris[face].iter().any(|q| {
+            let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
+            let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
+            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
+        })
+    }
+}
+
 /// Continuous chart coordinates (texel units) of plane point `p` on face `f`.
 pub fn chart_coords(f: &BakeFace, p: Vec3) -> Vec2 {
     let d = p - Vec3::from(f.origin);
@@ -136,17 +447,7 @@ pub fn chart_coords(f: &BakeFace, p: Vec3) -> Vec2 {
 /// indices clamped to the chart (never across faces or sides): the filter the renderer applies
 /// to the atlas (`render_final_radiance.wgsl`, `atlas_irradiance`).
 pub fn chart_bilinear(f: &BakeFace, values: &[[f32; 4]], side: u32, p: Vec3) -> Vec3 {
-    let c = chart_coords(f, p) - Vec2::splat(0.5);
-    let (x0, y0) = (c.x.floor(), c.y.floor());
-    let (fx, fy) = (c.x - x0, c.y - y0);
-    let ci = |i: f32| (i as i32).clamp(0, f.width as i32 - 1) as u32;
-    let cj = |j: f32| (j as i32).clamp(0, f.height as i32 - 1) as u32;
-    let base = f.texel_base + side * f.width * f.height;
-    let at = |i: u32, j: u32| Vec4::from(values[(base + j * f.width + i) as usize]).truncate();
-    let (i0, i1, j0, j1) = (ci(x0), ci(x0 + 1.0), cj(y0), cj(y0 + 1.0));
-    let top = at(i0, j0).lerp(at(i1, j0), fx);
-    let bottom = at(i0, j1).lerp(at(i1, j1), fx);
-    top.lerp(bottom, fy)
+    Quad::at(f, side, p).bilinear(values)
 }
 
 /// The sparse per-direction tiles of the non-diffuse faces, with the fixed directions' frames.

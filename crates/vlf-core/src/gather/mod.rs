@@ -29,8 +29,9 @@ use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::scene::Scene;
+pub use field::Charts;
 use field::{Field, Tiles, chart_bilinear};
-pub use points::{Charts, Openness, TexelPoints};
+pub use points::{Openness, TexelPoints};
 
 /// The propagated light field the gather reads.
 pub struct Converged<'a> {
@@ -92,7 +93,7 @@ pub const STREAM_DIRECT: u32 = 2;
 pub const SEED: u32 = 0x6a7e_5eed;
 
 struct Gatherer<'a> {
-    ps: PreparedScene<'a>,
+    ps: &'a PreparedScene<'a>,
     /// The propagated light field.
     field: Field<'a>,
     sky: Vec3,
@@ -102,7 +103,7 @@ impl Gatherer<'_> {
     /// Radiance arriving along `dir` from the first hit `hit` (world), emission excluded (the
     /// direct part).
     fn field_radiance(&self, dir: Vec3, hit: &Hit) -> Vec3 {
-        let s = self.field.surface(&self.ps, dir, hit);
+        let s = self.field.surface(self.ps, dir, hit);
         self.field.diffuse(&s) + self.field.specular(&s, dir)
     }
 
@@ -358,16 +359,18 @@ pub fn final_gather(
     threads: usize,
 ) -> Result<Gathered, ParamsError> {
     let prep = field.prep;
+    let ps = PreparedScene::new(scene);
     let g = Gatherer {
-        ps: PreparedScene::new(scene),
+        ps: &ps,
         field: Field::new(
-            scene,
+            &ps,
             prep,
             field.irradiance,
             field
                 .tiles
                 .map(|(index, values)| Tiles::new(index, values, field.directions)),
-        ),
+        )
+        .with_contacts(&ps, threads),
         sky: field.sky,
     };
     let grids = Grids::new(scene, field, gp)?;

@@ -16,46 +16,9 @@ use crate::bake::prep::BakeScene;
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Bvh, Ray};
-use crate::scene::{Scene, Similarity};
+use crate::scene::Similarity;
 
-/// Chart-space triangles (texel units) of every face of an atlas, to tell whether a chart
-/// point lies on its face.
-pub struct Charts {
-    tris: Vec<Vec<[Vec2; 3]>>,
-}
-
-impl Charts {
-    pub fn new(scene: &Scene, atlas: &BakeScene) -> Self {
-        let xf = scene.to_vlf;
-        let tris = atlas
-            .faces
-            .iter()
-            .enumerate()
-            .map(|(fi, f)| {
-                scene
-                    .face_triangles(fi)
-                    .iter()
-                    .map(|t| t.p.map(|p| super::field::chart_coords(f, xf.apply(p))))
-                    .collect()
-            })
-            .collect();
-        Self { tris }
-    }
-
-    /// The chart-space triangles of `face` (what the GPU gather uploads).
-    pub fn triangles(&self, face: usize) -> &[[Vec2; 3]] {
-        &self.tris[face]
-    }
-
-    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
-    pub fn inside(&self, face: usize, c: Vec2) -> bool {
-        self.tris[face].iter().any(|q| {
-            let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
-            let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
-            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
-        })
-    }
-}
+use super::field::Charts;
 
 /// The open/closed test of surface points (world space).
 pub struct Openness<'a> {
