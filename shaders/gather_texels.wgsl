@@ -8,7 +8,9 @@
 //
 // * indirect: cosine rays read the converged light field at their first hit: the
 //   propagation's (dilated) irradiance times the hit point's albedo / π, plus the mirror tiles
-//   in the ray's direction (common/mirror_tiles.wgsl, common/directions.wgsl).
+//   in the ray's direction (common/mirror_tiles.wgsl, common/directions.wgsl). The irradiance
+//   read stops at contacts as the CPU's (Field::irradiance_at; common/gather_field.wgsl), with
+//   the contact bits the CPU computed (Contacts) and short visibility rays.
 // * direct: light samples over the emitters and cosine rays combined with the power heuristic,
 //   the sky by the cosine rays, suns by shadow rays.
 //
@@ -33,6 +35,7 @@
 #import "common/bake_scene.wgsl"
 #import "common/directions.wgsl"
 #import "common/mirror_tiles.wgsl"
+#import "common/gather_field.wgsl"
 
 // Per-dispatch globals (mirrors vlf_gpu::layout::GatherGlobals).
 struct GatherGlobals {
@@ -74,7 +77,8 @@ struct GatherGlobals {
     k0: u32,
     k1: u32,
     side: u32,
-    _pad0: u32,
+    // Where the field buffer's contact bits start (16 texels' bytes per entry).
+    field_contacts: u32,
     _pad1: u32,
 }
 
@@ -96,9 +100,7 @@ struct GatherGlobals {
 
 // Group 1: the ray-tracing scene (common/rt_scene.wgsl).
 // Group 2: directions (bindings 0, 1), mirror tiles (3–5), and what a gather ray reads at its
-// hit: the propagation's faces (5 entries per BakeFace, at 0) and dilated irradiance (at
-// gg.field_irradiance) in one buffer.
-@group(2) @binding(6) var<storage, read> field: array<vec4<f32>>;
+// hit (common/gather_field.wgsl, binding 6).
 
 fn face_from(a: vec4<f32>, b: vec4<f32>, c: vec4<f32>, d: vec4<f32>, e: vec4<f32>) -> BakeFace {
     return BakeFace(
@@ -333,28 +335,6 @@ fn strata_point(k: u32, g: u32, r: ptr<function, Rng>) -> vec2<f32> {
     return vec2<f32>(f32(s % g) + j.x, f32(s / g) + j.y) / f32(g);
 }
 
-// A per-texel quantity of propagation face f on `side` read bilinearly at plane point p, texel
-// indices clamped to the chart (vlf_core::gather::field::chart_bilinear).
-fn field_bilinear(f: BakeFace, side: u32, p: vec3<f32>) -> vec3<f32> {
-    let d = p - f.origin;
-    let c = vec2<f32>(dot(d, f.u), dot(d, f.v)) / f.texel_size - vec2<f32>(0.5);
-    let x0 = floor(c.x);
-    let y0 = floor(c.y);
-    let fx = c.x - x0;
-    let fy = c.y - y0;
-    let wi = i32(f.width) - 1;
-    let hi = i32(f.height) - 1;
-    let i0 = u32(clamp(i32(x0), 0, wi));
-    let i1 = u32(clamp(i32(x0 + 1.0), 0, wi));
-    let j0 = u32(clamp(i32(y0), 0, hi));
-    let j1 = u32(clamp(i32(y0 + 1.0), 0, hi));
-    let base = f.texel_base + side * f.width * f.height;
-    let e = gg.field_irradiance + base;
-    let top = mix(field[e + j0 * f.width + i0].xyz, field[e + j0 * f.width + i1].xyz, fx);
-    let bottom = mix(field[e + j1 * f.width + i0].xyz, field[e + j1 * f.width + i1].xyz, fx);
-    return mix(top, bottom, fy);
-}
-
 // Radiance arriving along dir from the first hit (emission excluded): Gatherer::field_radiance.
 fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
     let tri = triangles[hit.tri];
@@ -365,7 +345,12 @@ fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
     let side = select(1u, 0u, dot(f.normal, -dir) >= 0.0);
     let m = material(tri.material);
     let rho = m.base_color * m.bake_diffuse * sample_texture(m.base_texture, tri_uv(hit.tri, hit.u, hit.v));
-    var l = rho * INV_PI * field_bilinear(f, side, p);
+    var l = vec3<f32>(0.0);
+    // Field::diffuse: no read (and no visibility rays) where the albedo is zero.
+    if any(rho != vec3<f32>(0.0)) {
+        let at = FieldSections(gg.field_irradiance, gg.field_contacts, gg.xf_scale, gg.xf_center);
+        l = rho * INV_PI * field_irradiance_at(at, f, side, p, pw);
+    }
     if gg.has_tiles != 0u {
         let mf = tile_face_slot(face);
         if mf != NO_TILE_SLOT {

@@ -265,7 +265,8 @@ pub struct GatherGlobals {
     pub k0: u32,
     pub k1: u32,
     pub side: u32,
-    pub _pad0: u32,
+    /// Where the field buffer's contact bits start (vec4 units; 16 texels per entry).
+    pub field_contacts: u32,
     pub _pad1: u32,
 }
 
@@ -428,7 +429,7 @@ pub fn registry() -> Vec<SharedStruct> {
             sky, xf_center, xf_scale, texel_base, texel_count, stream, seed, points, points_side,
             r_close, has_tiles, light_samples, light_side, cosine_rays, cosine_side, grid_texels,
             chart_start, chart_tris, field_irradiance, scratch_stride, strata_at, sentinel, k0, k1,
-            side, _pad0, _pad1,
+            side, field_contacts, _pad1,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

@@ -82,6 +82,8 @@ pub static COMMON_RT_SCENE: Shader = shader!("common/rt_scene.wgsl");
 pub static COMMON_DIRECTIONS: Shader = shader!("common/directions.wgsl");
 /// The light field's mirror tiles: specular radiance leaving a face in a direction.
 pub static COMMON_MIRROR_TILES: Shader = shader!("common/mirror_tiles.wgsl");
+/// What a final-gather ray reads at its hit: the field's irradiance, stopping at contacts.
+pub static COMMON_GATHER_FIELD: Shader = shader!("common/gather_field.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -117,6 +119,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_RT_SCENE,
     &COMMON_DIRECTIONS,
     &COMMON_MIRROR_TILES,
+    &COMMON_GATHER_FIELD,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

@@ -261,22 +261,27 @@ impl Quad {
 pub struct Contacts<'a> {
     bvh: &'a Bvh,
     xf: Similarity,
-    /// Bits per texel: [`RIGHT`], [`UP`], [`DIAGONAL`], [`ANTI_DIAGONAL`], [`CUT`].
+    /// Bits per texel: [`CONTACT_RIGHT`], [`CONTACT_UP`], [`CONTACT_DIAGONAL`],
+    /// [`CONTACT_ANTI_DIAGONAL`], [`CONTACT_CUT`].
     bits: Vec<u8>,
 }
 
-const RIGHT: u8 = 1;
-const UP: u8 = 2;
-const DIAGONAL: u8 = 4;
-const ANTI_DIAGONAL: u8 = 8;
-const CUT: u8 = 16;
-/// How far segments between texel points are lifted off their side (texels).
-const LIFT: f32 = 1e-3;
+/// [`Contacts`]' bits of a texel (mirrored in `shaders/common/gather_field.wgsl`): its
+/// centre sees its right neighbour's, its upper neighbour's, its (+1, +1) neighbour's; its
+/// (+1, 0) neighbour sees its (0, +1) neighbour; it is cut.
+pub const CONTACT_RIGHT: u8 = 1;
+pub const CONTACT_UP: u8 = 2;
+pub const CONTACT_DIAGONAL: u8 = 4;
+pub const CONTACT_ANTI_DIAGONAL: u8 = 8;
+pub const CONTACT_CUT: u8 = 16;
+/// How far segments between texel points are lifted off their side (texels; mirrored in
+/// `shaders/common/gather_field.wgsl`).
+pub const CONTACT_LIFT: f32 = 1e-3;
 
 impl<'a> Contacts<'a> {
     /// No contacts: every quad reads bilinearly.
     fn none(bvh: &'a Bvh, scene: &Scene, atlas: &BakeScene) -> Self {
-        let all = RIGHT | UP | DIAGONAL | ANTI_DIAGONAL;
+        let all = CONTACT_RIGHT | CONTACT_UP | CONTACT_DIAGONAL | CONTACT_ANTI_DIAGONAL;
         Self {
             bvh,
             xf: scene.to_vlf,
@@ -284,7 +289,9 @@ impl<'a> Contacts<'a> {
         }
     }
 
-    fn new(bvh: &'a Bvh, scene: &Scene, atlas: &BakeScene, threads: usize) -> Self {
+    /// The contacts of `atlas` (the charts of `scene`, whose BVH is `bvh`), found on `threads`
+    /// workers (0 = all cores).
+    pub fn new(bvh: &'a Bvh, scene: &Scene, atlas: &BakeScene, threads: usize) -> Self {
         let mut c = Self {
             bvh,
             xf: scene.to_vlf,
@@ -313,16 +320,16 @@ impl<'a> Contacts<'a> {
             let (wide, tall) = (x + 1 < f.width, y + 1 < f.height);
             let mut bits = 0;
             if !wide || clear((0, 0), (1, 0)) {
-                bits |= RIGHT;
+                bits |= CONTACT_RIGHT;
             }
             if !tall || clear((0, 0), (0, 1)) {
-                bits |= UP;
+                bits |= CONTACT_UP;
             }
             if !(wide && tall) || clear((0, 0), (1, 1)) {
-                bits |= DIAGONAL;
+                bits |= CONTACT_DIAGONAL;
             }
             if !(wide && tall) || clear((1, 0), (0, 1)) {
-                bits |= ANTI_DIAGONAL;
+                bits |= CONTACT_ANTI_DIAGONAL;
             }
             if atlas.texel_area[t] > 0.0 {
                 let centroid = c.xf.inverse(Vec4::from(atlas.texel_center[t]).truncate());
@@ -339,7 +346,7 @@ impl<'a> Contacts<'a> {
                     .chain(neighbours)
                     .any(|q| !c.sees(from, c.lift(f, c.chart_world(f, q), n)));
                 if cut {
-                    bits |= CUT;
+                    bits |= CONTACT_CUT;
                 }
             }
             bits
@@ -348,34 +355,42 @@ impl<'a> Contacts<'a> {
         c
     }
 
+    /// The bits of every texel of the atlas, in texel order: [`CONTACT_RIGHT`], [`CONTACT_UP`],
+    /// [`CONTACT_DIAGONAL`], [`CONTACT_ANTI_DIAGONAL`], [`CONTACT_CUT`] (what the GPU gather
+    /// uploads).
+    pub fn bits(&self) -> &[u8] {
+        &self.bits
+    }
+
     /// Whether the six segments between `q`'s texel centres are all clear and none of its
     /// texels is cut.
     fn quad_is_clear(&self, q: &Quad) -> bool {
         let b = |c: usize| self.bits[q.texel[c] as usize];
-        if (b(0) | b(1) | b(2) | b(3)) & CUT != 0 {
+        if (b(0) | b(1) | b(2) | b(3)) & CONTACT_CUT != 0 {
             return false;
         }
         let mut ok = true;
         if q.wide {
-            ok &= b(0) & b(2) & RIGHT != 0;
+            ok &= b(0) & b(2) & CONTACT_RIGHT != 0;
         }
         if q.tall {
-            ok &= b(0) & b(1) & UP != 0;
+            ok &= b(0) & b(1) & CONTACT_UP != 0;
         }
         if q.wide && q.tall {
-            ok &= b(0) & (DIAGONAL | ANTI_DIAGONAL) == DIAGONAL | ANTI_DIAGONAL;
+            ok &= b(0) & (CONTACT_DIAGONAL | CONTACT_ANTI_DIAGONAL)
+                == CONTACT_DIAGONAL | CONTACT_ANTI_DIAGONAL;
         }
         ok
     }
 
     /// Whether texel `t` is cut by a contact.
     fn cut(&self, t: u32) -> bool {
-        self.bits[t as usize] & CUT != 0
+        self.bits[t as usize] & CONTACT_CUT != 0
     }
 
     /// World point `p` of face `f` lifted off the side with unit normal `n`.
     fn lift(&self, f: &BakeFace, p: Vec3, n: Vec3) -> Vec3 {
-        offset_ray_origin(p + n * (LIFT * f.texel_size / self.xf.scale), n)
+        offset_ray_origin(p + n * (CONTACT_LIFT * f.texel_size / self.xf.scale), n)
     }
 
     /// World point of face `f`'s plane at chart coordinates `c` (texel units).

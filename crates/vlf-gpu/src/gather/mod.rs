@@ -26,14 +26,21 @@
 //! Bind groups of every step: 0 = [`GatherGlobals`] (one entry per step, dynamic offset), the
 //! grid (faces, texels, chart triangles: one buffer in sections), the output and the scratch,
 //! 1 = the ray-tracing scene (`common/rt_scene.wgsl`), 2 = the converged field:
-//! direction tables (0, 1), mirror tiles (3–5), the propagation's faces and dilated irradiance
-//! (6, one buffer). Eight storage buffers in all, the device's minimum per stage.
+//! direction tables (0, 1), mirror tiles (3–5), the propagation's faces, dilated irradiance and
+//! contact bits (6, one buffer). Eight storage buffers in all, the device's minimum per stage.
+//!
+//! **Contacts.** A gather ray's read of the field stops at contacts as the CPU's does
+//! (`vlf_core::gather::field::Field::irradiance_at`): the per-texel contact bits are computed
+//! on the CPU ([`Contacts`], once per field) and uploaded; `shaders/common/gather_field.wgsl`
+//! ports the fallback of a read whose quad is not clear, its visibility rays traced through the
+//! same BVH (and counted in the same loop budget) as the gather's rays.
 
 mod plan;
 
 use std::sync::Arc;
 
 use glam::{Vec3, Vec4};
+use vlf_core::gather::field::Contacts;
 use vlf_core::gather::{
     self as spec, Converged, Gathered, Grid, Grids, SEED, STREAM_DIRECT, STREAM_INDIRECT,
     strata_side,
@@ -398,7 +405,8 @@ pub fn final_gather_with(
     let device = &ctx.device;
     let (ind, dir) = ctx.trap(|| -> Result<_, GpuGatherError> {
         let gpu_scene = GpuScene::upload(device, &ps)?;
-        let (field_bg, irradiance_at) = field_bind_group(ctx, pipelines, field)?;
+        let contacts = Contacts::new(&ps.bvh, scene, field.prep, 0);
+        let (field_bg, field_at) = field_bind_group(ctx, pipelines, field, &contacts)?;
         let scene_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("Gather::scene_bind_group"),
             layout: &pipelines.scene_layout,
@@ -425,7 +433,7 @@ pub fn final_gather_with(
                     grid,
                     &est,
                     [&scene_bg, &field_bg],
-                    irradiance_at,
+                    field_at,
                     &opts,
                 )?;
                 if let Some(out) = out {
@@ -478,13 +486,15 @@ fn checked<T: bytemuck::Pod>(
     Ok(storage_buffer(device, label, data, extra))
 }
 
-/// Group 2: the converged field (directions, mirror tiles, propagation faces and dilated
-/// irradiance), and where the irradiance starts in its buffer.
+/// Group 2: the converged field (directions, mirror tiles, propagation faces, dilated
+/// irradiance and the contact bits of its atlas, 16 texels' bytes per entry), and where the
+/// irradiance and the contact bits start in its buffer.
 fn field_bind_group(
     ctx: &GpuContext,
     pipelines: &GatherPipelines,
     field: &Converged,
-) -> Result<(wgpu::BindGroup, u32), GpuGatherError> {
+    contacts: &Contacts,
+) -> Result<(wgpu::BindGroup, [u32; 2]), GpuGatherError> {
     let device = &ctx.device;
     let dirs = GpuDirections::new(device, field.directions);
     let mut bytes = 0;
@@ -499,6 +509,8 @@ fn field_bind_group(
     let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&field.prep.faces).to_vec();
     let irradiance_at = data.len() as u32;
     data.extend(spec::dilated_irradiance(field));
+    let contacts_at = data.len() as u32;
+    data.extend(contact_entries(contacts.bits()));
     let data = checked(device, "Gather::field", &data, wgpu::BufferUsages::empty())?;
     let tex = |binding, view| wgpu::BindGroupEntry {
         binding,
@@ -516,7 +528,26 @@ fn field_bind_group(
             entry(6, &data),
         ],
     });
-    Ok((bind_group, irradiance_at))
+    Ok((bind_group, [irradiance_at, contacts_at]))
+}
+
+/// Per-texel contact bits packed 16 to a vec4 entry: texel t's byte is byte t % 4
+/// (little-endian) of word (t / 4) % 4 of entry t / 16 (`contact_bits` in the shader).
+fn contact_entries(bits: &[u8]) -> Vec<[f32; 4]> {
+    bits.chunks(16)
+        .map(|c| {
+            let mut b = [0u8; 16];
+            b[..c.len()].copy_from_slice(c);
+            std::array::from_fn(|w| {
+                f32::from_bits(u32::from_le_bytes([
+                    b[4 * w],
+                    b[4 * w + 1],
+                    b[4 * w + 2],
+                    b[4 * w + 3],
+                ]))
+            })
+        })
+        .collect()
 }
 
 /// The estimates of every texel of `grid` (`None`: no open point), or `None` when a step of
@@ -530,7 +561,7 @@ fn gather_grid(
     grid: &Grid,
     est: &Estimator,
     [scene_bg, field_bg]: [&wgpu::BindGroup; 2],
-    irradiance_at: u32,
+    [irradiance_at, contacts_at]: [u32; 2],
     options: &GatherOptions,
 ) -> Result<Option<Vec<Option<Vec3>>>, GpuGatherError> {
     let device = &ctx.device;
@@ -600,6 +631,7 @@ fn gather_grid(
         chart_start,
         chart_tris,
         field_irradiance: irradiance_at,
+        field_contacts: contacts_at,
         scratch_stride: est.scratch_stride(),
         strata_at: HEADER + est.points,
         sentinel: 2,

@@ -83,8 +83,8 @@ impl GatherPlan {
                 16,
             ),
             buffer(
-                "Gather::field (faces, dilated irradiance)",
-                5 * c.faces + c.field_texels,
+                "Gather::field (faces, dilated irradiance, contact bits)",
+                5 * c.faces + c.field_texels + c.field_texels.div_ceil(16),
                 16,
             ),
             buffer("Gather::tile_values", c.tile_values, 16),

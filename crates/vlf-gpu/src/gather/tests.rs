@@ -100,3 +100,43 @@ fn scratch_holds_the_state_the_points_and_the_larger_strata() {
     assert_eq!(chunk_texels(&e, 4096, 50, 100 * per).unwrap(), 50);
     assert!(chunk_texels(&e, 4096, 50, per - 1).is_err());
 }
+
+/// The contact bits and lift of `common/gather_field.wgsl` are `vlf_core::gather::field`'s.
+#[test]
+fn contact_constants_match_vlf_core() {
+    use crate::shaders::{self, constant};
+    use vlf_core::gather::field as spec_field;
+    use wgpu::naga::Literal;
+    let module = shaders::COMMON_GATHER_FIELD.validate().unwrap();
+    for (name, value) in [
+        ("CONTACT_RIGHT", spec_field::CONTACT_RIGHT),
+        ("CONTACT_UP", spec_field::CONTACT_UP),
+        ("CONTACT_DIAGONAL", spec_field::CONTACT_DIAGONAL),
+        ("CONTACT_ANTI_DIAGONAL", spec_field::CONTACT_ANTI_DIAGONAL),
+        ("CONTACT_CUT", spec_field::CONTACT_CUT),
+    ] {
+        assert_eq!(
+            constant(&module, name),
+            Some(Literal::U32(u32::from(value))),
+            "common/gather_field.wgsl: const {name}"
+        );
+    }
+    assert_eq!(
+        constant(&module, "CONTACT_LIFT"),
+        Some(Literal::F32(spec_field::CONTACT_LIFT))
+    );
+}
+
+/// Texel t's contact byte is byte t % 4 of word (t / 4) % 4 of entry t / 16, as the shader's
+/// `contact_bits` reads it.
+#[test]
+fn contact_bits_pack_sixteen_to_an_entry() {
+    let bits: Vec<u8> = (0..35u8).collect();
+    let e = contact_entries(&bits);
+    assert_eq!(e.len(), 3);
+    for (t, &b) in bits.iter().enumerate() {
+        let word = e[t / 16][(t / 4) % 4].to_bits();
+        assert_eq!((word >> (8 * (t % 4))) & 0xff, u32::from(b), "texel {t}");
+    }
+    assert_eq!(e[2][0].to_bits() >> 24, 0, "padding is zero");
+}
