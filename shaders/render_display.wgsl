@@ -1,7 +1,7 @@
 // Display: shows one render pass's output (the debug view, g.view) on a colour target — the
 // window's surface, a screenshot or a debug still. Not one of the five passes; it only
 // visualises them. (For the final image the window skips this pass: pass 5 writes the surface
-// itself, see render_final_radiance.wgsl's fs_present.)
+// itself, see render_final_radiance.wgsl's fs_surface and fs_sky.)
 //
 // view 0 direction ids: a colour per sphere triangle (hash of its index);
 // view 1 barycentrics: rgb = the three weights;

@@ -50,7 +50,8 @@
 //! face id read back, no pass 4 targets written) and passes 1–2 skipped without mirrors.
 //!
 //! Bindings: group 0 = [`RenderGlobals`] (camera matrices, eye, sky, sample index), group 1 =
-//! the pass's own resources. Everything is labelled `"PassName::thing"`.
+//! the pass's own resources, group 2 = the mirror tiles (pass 5, `common/mirror_tiles.wgsl`).
+//! Everything is labelled `"PassName::thing"`.
 
 pub mod barycentrics;
 pub mod camera;
@@ -627,8 +628,8 @@ impl Renderer {
         Ok(px.into_iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
-    /// Encodes one interactive frame into `encoder`: the five passes (one sample at the pixel
-    /// centres) and the selected debug view on `target` (`width × height`, format `format`),
+    /// Encodes one interactive frame into `encoder`: the passes it needs (one sample at the pixel
+    /// centres, see below) and the selected debug view on `target` (`width × height`, format `format`),
     /// with `exposure` (a linear factor) and `tonemap` for the final image. For the final image
     /// pass 5 writes `target` itself (fused display) and interpolates pass 4's outputs itself
     /// (fused position, [`final_radiance`]), so pass 4 does not run, nor do passes 1–2 when
