@@ -311,6 +311,7 @@ fn gpu_gather_is_deterministic_and_independent_of_dispatch_size() {
             chunk: 300,
             point_batch: 3,
             ray_batch: 7,
+            threads: 0,
         },
     );
     // All of a texel's samples in one step each: on lavapipe their loops run out of the
@@ -325,6 +326,7 @@ fn gpu_gather_is_deterministic_and_independent_of_dispatch_size() {
             chunk: gather::DEFAULT_CHUNK,
             point_batch: 256,
             ray_batch: 256,
+            threads: 0,
         },
     );
     let bits =

@@ -208,7 +208,11 @@ fn finish(
     };
     let pipelines = vlf_gpu::gather::GatherPipelines::of(ctx);
     let field = pipeline::converged(prep, params, set, &out);
-    let g = vlf_gpu::gather::final_gather(ctx, &pipelines, scene, &field, &gp)
+    let options = vlf_gpu::gather::GatherOptions {
+        threads,
+        ..Default::default()
+    };
+    let g = vlf_gpu::gather::final_gather_with(ctx, &pipelines, scene, &field, &gp, &options)
         .context("GPU final gather")?;
     Ok(pipeline::finish_gathered(
         scene,

@@ -452,7 +452,7 @@ fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
     assert!(
         gather
             .iter()
-            .any(|i| i["name"] == "final gather: Gather::scratch" && i["place"] == "gpu"),
+            .any(|i| i["name"] == "final gather: FinalGather::scratch" && i["place"] == "gpu"),
         "{gather:?}"
     );
     assert!(gather.iter().all(|i| i["bytes"].as_u64().unwrap() > 0));

@@ -155,7 +155,7 @@ pub struct GatherPipelines {
 impl GatherPipelines {
     pub fn new(device: &wgpu::Device) -> Self {
         let grid_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Gather::grid_layout"),
+            label: Some("FinalGather::grid_layout"),
             entries: &[
                 uniform_entry::<GatherGlobals>(0, true),
                 storage_entry(1, true),
@@ -164,7 +164,7 @@ impl GatherPipelines {
             ],
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Gather::scene_layout"),
+            label: Some("FinalGather::scene_layout"),
             entries: &[
                 storage_entry(0, true),
                 storage_entry(1, true),
@@ -185,7 +185,7 @@ impl GatherPipelines {
             count: None,
         };
         let field_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("Gather::field_layout"),
+            label: Some("FinalGather::field_layout"),
             entries: &[
                 uniform_entry::<DirTables>(0, false),
                 storage_entry(1, true),
@@ -196,7 +196,7 @@ impl GatherPipelines {
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("Gather::pipeline_layout"),
+            label: Some("FinalGather::pipeline_layout"),
             bind_group_layouts: &[Some(&grid_layout), Some(&scene_layout), Some(&field_layout)],
             immediate_size: 0,
         });
@@ -205,7 +205,7 @@ impl GatherPipelines {
             .iter()
             .map(|e| {
                 device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("Gather::{}_pipeline", e.name())),
+                    label: Some(&format!("FinalGather::{}_pipeline", e.name())),
                     layout: Some(&layout),
                     module: &module,
                     entry_point: Some(e.name()),
@@ -243,6 +243,8 @@ pub struct GatherOptions {
     pub point_batch: u32,
     /// Rays per ray step.
     pub ray_batch: u32,
+    /// CPU workers for what the gather prepares on the host (the contact bits; 0 = all cores).
+    pub threads: usize,
 }
 
 impl Default for GatherOptions {
@@ -251,6 +253,7 @@ impl Default for GatherOptions {
             chunk: DEFAULT_CHUNK,
             point_batch: DEFAULT_POINT_BATCH,
             ray_batch: DEFAULT_RAY_BATCH,
+            threads: 0,
         }
     }
 }
@@ -405,10 +408,10 @@ pub fn final_gather_with(
     let device = &ctx.device;
     let (ind, dir) = ctx.trap(|| -> Result<_, GpuGatherError> {
         let gpu_scene = GpuScene::upload(device, &ps)?;
-        let contacts = Contacts::new(&ps.bvh, scene, field.prep, 0);
+        let contacts = Contacts::new(&ps.bvh, scene, field.prep, options.threads);
         let (field_bg, field_at) = field_bind_group(ctx, pipelines, field, &contacts)?;
         let scene_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("Gather::scene_bind_group"),
+            label: Some("FinalGather::scene_bind_group"),
             layout: &pipelines.scene_layout,
             entries: &[
                 entry(0, &gpu_scene.nodes),
@@ -511,13 +514,18 @@ fn field_bind_group(
     data.extend(spec::dilated_irradiance(field));
     let contacts_at = data.len() as u32;
     data.extend(contact_entries(contacts.bits()));
-    let data = checked(device, "Gather::field", &data, wgpu::BufferUsages::empty())?;
+    let data = checked(
+        device,
+        "FinalGather::field",
+        &data,
+        wgpu::BufferUsages::empty(),
+    )?;
     let tex = |binding, view| wgpu::BindGroupEntry {
         binding,
         resource: wgpu::BindingResource::TextureView(view),
     };
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("Gather::field_bind_group"),
+        label: Some("FinalGather::field_bind_group"),
         layout: &pipelines.field_layout,
         entries: &[
             entry(0, &dirs.tables),
@@ -571,17 +579,22 @@ fn gather_grid(
         return Ok(Some(Vec::new()));
     }
     let (data, [grid_texels, chart_start, chart_tris]) = grid_data(grid);
-    let data = checked(device, "Gather::grid", &data, wgpu::BufferUsages::empty())?;
+    let data = checked(
+        device,
+        "FinalGather::grid",
+        &data,
+        wgpu::BufferUsages::empty(),
+    )?;
     let out = checked(
         device,
-        "Gather::out",
+        "FinalGather::out",
         &vec![[0.0f32; 4]; count as usize],
         wgpu::BufferUsages::COPY_SRC,
     )?;
     let limit = device.limits().max_storage_buffer_binding_size;
     let chunk = chunk_texels(est, options.chunk, count, limit)?;
     let scratch = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("Gather::scratch"),
+        label: Some("FinalGather::scratch"),
         size: u64::from(chunk) * u64::from(est.scratch_stride()) * 16,
         usage: wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
@@ -590,13 +603,13 @@ fn gather_grid(
     // One GatherGlobals per step, at a dynamic offset; rewritten for every chunk.
     let stride = device.limits().min_uniform_buffer_offset_alignment.max(256);
     let globals = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("Gather::globals"),
+        label: Some("FinalGather::globals"),
         size: u64::from(stride) * steps.len() as u64,
         usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let grid_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("Gather::grid_bind_group"),
+        label: Some("FinalGather::grid_bind_group"),
         layout: &pipelines.grid_layout,
         entries: &[
             wgpu::BindGroupEntry {
@@ -657,11 +670,11 @@ fn gather_grid(
         }
         ctx.queue.write_buffer(&globals, 0, &bytes);
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("Gather::encoder"),
+            label: Some("FinalGather::encoder"),
         });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("Gather::pass"),
+                label: Some("FinalGather::pass"),
                 timestamp_writes: None,
             });
             let (gx, gy) = dispatch_2d(n, WORKGROUP, max_groups);
@@ -704,7 +717,7 @@ fn chunk_texels(
     let fit = (limit / per_texel).min(u64::from(u32::MAX)) as u32;
     if fit == 0 {
         return Err(GpuGatherError::TooLarge {
-            what: "Gather::scratch",
+            what: "FinalGather::scratch",
             bytes: per_texel,
             limit,
         });

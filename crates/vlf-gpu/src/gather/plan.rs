@@ -83,11 +83,11 @@ impl GatherPlan {
                 16,
             ),
             buffer(
-                "Gather::field (faces, dilated irradiance, contact bits)",
+                "FinalGather::field (faces, dilated irradiance, contact bits)",
                 5 * c.faces + c.field_texels + c.field_texels.div_ceil(16),
                 16,
             ),
-            buffer("Gather::tile_values", c.tile_values, 16),
+            buffer("FinalGather::tile_values", c.tile_values, 16),
         ];
         let ests = Estimator::of(gp, c.has_emitters, c.suns);
         let texels = [c.indirect_texels, c.direct_texels];
@@ -100,14 +100,14 @@ impl GatherPlan {
             let stride = u64::from(est.scratch_stride());
             grids.push(vec![
                 buffer(
-                    "Gather::grid (faces, texels, charts)",
+                    "FinalGather::grid (faces, texels, charts)",
                     5 * c.faces + 2 * texels[i] + c.faces + 1 + 2 * c.triangles,
                     16,
                 ),
-                buffer("Gather::out", texels[i], 16),
-                buffer("Gather::scratch", u64::from(chunk) * stride, 16),
+                buffer("FinalGather::out", texels[i], 16),
+                buffer("FinalGather::scratch", u64::from(chunk) * stride, 16),
                 buffer(
-                    "Gather::globals (one per step)",
+                    "FinalGather::globals (one per step)",
                     steps(est, options).len() as u64,
                     u64::from(uniform_align).max(size_of::<GatherGlobals>() as u64),
                 ),

@@ -38,6 +38,7 @@ fn steps_run_in_the_cpu_order_and_cover_every_sample_once() {
         chunk: 1,
         point_batch: 3,
         ray_batch: 7,
+        threads: 0,
     };
     let ind = steps(&est(Kind::Indirect, 256, 0, 256, false), &opts);
     let order: Vec<Entry> = ind.iter().map(|s| s.entry).collect();
