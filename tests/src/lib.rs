@@ -7,6 +7,8 @@
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
+use vlf_gpu::render::targets::read_texture;
+use vlf_gpu::render::{CameraView, Renderer, Tonemap};
 use vlf_gpu::{DeviceOptions, GpuContext};
 
 /// True when GPU tests must fail rather than skip without an adapter.
@@ -38,4 +40,49 @@ pub fn shared_dir() -> PathBuf {
 /// Root of the repository.
 pub fn repo_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The window's final image of `r` from `cam` (`width × height`, raw linear values: exposure 1,
+/// no tonemap, float target), read back.
+pub fn window_frame(
+    ctx: &GpuContext,
+    r: &mut Renderer,
+    cam: &CameraView,
+    width: u32,
+    height: u32,
+) -> Vec<[f32; 4]> {
+    let format = wgpu::TextureFormat::Rgba32Float;
+    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("Test::view_target"),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = target.create_view(&Default::default());
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    r.render_to_view(
+        ctx,
+        &mut encoder,
+        cam,
+        &view,
+        format,
+        width,
+        height,
+        1.0,
+        Tonemap::None,
+    )
+    .unwrap();
+    ctx.queue.submit(Some(encoder.finish()));
+    r.frame_submitted(ctx);
+    read_texture(&ctx.device, &ctx.queue, &target, 16).unwrap()
 }

@@ -10,9 +10,8 @@ use vlf_core::scene::{Scene, SceneBuilder};
 use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
-use vlf_gpu::render::targets::read_texture;
-use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer, Tonemap};
-use vlf_tests::{gpu, shared_dir};
+use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
+use vlf_tests::{gpu, shared_dir, window_frame};
 
 const W: u32 = 64;
 const H: u32 = 64;
@@ -280,44 +279,6 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
     assert!(worst <= 1e-4, "relative error {worst:.2e} > 1e-4");
 }
 
-/// The window's final image (fused display, raw values) of `r` from `cam`.
-fn window_frame(ctx: &GpuContext, r: &mut Renderer, cam: &CameraView) -> Vec<[f32; 4]> {
-    let format = wgpu::TextureFormat::Rgba32Float;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("Test::view_target"),
-        size: wgpu::Extent3d {
-            width: W,
-            height: H,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = target.create_view(&Default::default());
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    r.render_to_view(
-        ctx,
-        &mut encoder,
-        cam,
-        &view,
-        format,
-        W,
-        H,
-        1.0,
-        Tonemap::None,
-    )
-    .unwrap();
-    ctx.queue.submit(Some(encoder.finish()));
-    r.frame_submitted(ctx);
-    read_texture(&ctx.device, &ctx.queue, &target, 16).unwrap()
-}
-
 #[test]
 fn window_draws_mirror_pixels_by_stencil_like_stills() {
     let Some(ctx) = gpu() else { return };
@@ -338,7 +299,7 @@ fn window_draws_mirror_pixels_by_stencil_like_stills() {
     for tracing in [true, false] {
         r.set_mirror_tracing(tracing);
         let still = r.render_frame_data(ctx, &cam, W, H).unwrap();
-        let shown = window_frame(ctx, &mut r, &cam);
+        let shown = window_frame(ctx, &mut r, &cam, W, H);
         let mut mirror_pixels = 0;
         for (i, px) in shown.iter().enumerate() {
             let face = still.face_id[i];

@@ -9,9 +9,8 @@ use vlf_core::scene::{
     FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture, WrapMode,
 };
 use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
-use vlf_gpu::render::targets::read_texture;
-use vlf_gpu::render::{CameraView, NO_FACE, Renderer, Tonemap};
-use vlf_tests::gpu;
+use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::{gpu, window_frame};
 
 const W: u32 = 96;
 const H: u32 = 96;
@@ -332,40 +331,7 @@ fn textured_and_untextured_faces_render_alike_in_stills_and_the_window() {
             .features()
             .contains(wgpu::Features::DEPTH32FLOAT_STENCIL8)
     );
-    let format = wgpu::TextureFormat::Rgba32Float;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("Test::view_target"),
-        size: wgpu::Extent3d {
-            width: W,
-            height: H,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = target.create_view(&Default::default());
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    r.render_to_view(
-        ctx,
-        &mut encoder,
-        &cam,
-        &view,
-        format,
-        W,
-        H,
-        1.0,
-        Tonemap::None,
-    )
-    .unwrap();
-    ctx.queue.submit(Some(encoder.finish()));
-    r.frame_submitted(ctx);
-    let shown: Vec<[f32; 4]> = read_texture(&ctx.device, &ctx.queue, &target, 16).unwrap();
+    let shown = window_frame(ctx, &mut r, &cam, W, H);
     for (i, px) in shown.iter().enumerate() {
         let (got, want) = (
             Vec4::from(*px).truncate(),
