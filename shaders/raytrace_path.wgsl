@@ -75,41 +75,6 @@ const RR_MAX_SURVIVAL: f32 = 0.95;
 
 
 // ---------------------------------------------------------------------------------------------
-// GGX sampling (mirrors vlf_core::pathtrace::sampling; the rest is in common/sampling.wgsl).
-
-fn ggx_d(cos_h: f32, alpha: f32) -> f32 {
-    let a2 = alpha * alpha;
-    let d = cos_h * cos_h * (a2 - 1.0) + 1.0;
-    return a2 / (PI * d * d);
-}
-
-fn ggx_g1(cos_v: f32, alpha: f32) -> f32 {
-    let a2 = alpha * alpha;
-    return 2.0 * cos_v / (cos_v + sqrt(a2 + (1.0 - a2) * cos_v * cos_v));
-}
-
-fn ggx_sample_vndf(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
-    let vh = normalize(vec3<f32>(alpha * wo.x, alpha * wo.y, wo.z));
-    let lensq = vh.x * vh.x + vh.y * vh.y;
-    var t1 = vec3<f32>(1.0, 0.0, 0.0);
-    if lensq > 0.0 {
-        t1 = vec3<f32>(-vh.y, vh.x, 0.0) / sqrt(lensq);
-    }
-    let t2 = cross(vh, t1);
-    let r = sqrt(u.x);
-    let phi = TAU * u.y;
-    let p1 = r * cos(phi);
-    let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * r * sin(phi);
-    let nh = t1 * p1 + t2 * p2 + vh * sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));
-    return normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(nh.z, 1e-7)));
-}
-
-fn reflect_about(v: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    return 2.0 * dot(v, n) * n - v;
-}
-
-// ---------------------------------------------------------------------------------------------
 // BSDF (mirrors vlf_core::pathtrace::material).
 
 // Non-delta f(wo, wi) in xyz and the BSDF-sampling pdf in w.

@@ -37,7 +37,9 @@
 //   scene's BVH instead (common/bvh.wgsl), following further mirrors up to MIRROR_DEPTH
 //   mirrors, and read at the first diffuse face what this pass reads at a visible point there
 //   (surface_radiance_uv), or the sky; a chain cut off by the bound or ending on a mixed face
-//   falls back to the visible face's tiles.
+//   falls back to the visible face's tiles. A glossy visible face (GGX α > 0 in its record)
+//   traces LOBE_SAMPLES directions of its lobe per sample instead of the one mirror direction
+//   (traced_specular); the share of them cut off reads the tiles.
 //
 // Output: this sample's radiance (rgb; a = 1 where a face is seen) in `radiance_out`. Stills
 // with several jittered samples (sample_count > 1) also accumulate it into `accum` with weight
@@ -57,6 +59,8 @@
 #import "common/bvh.wgsl"
 #import "common/bake_scene.wgsl"
 #import "common/mirror_tiles.wgsl"
+#import "common/sampling.wgsl"
+#import "common/hash.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
@@ -86,6 +90,9 @@ override TRACING: bool = false;
 // Mirrors a traced chain follows, the visible one included (vlf_gpu::render::mirror_trace::
 // MAX_DEPTH, a Rust test checks).
 const MIRROR_DEPTH: u32 = 8u;
+// Directions a glossy pixel traces per sample of pass 5 (vlf_gpu::render::mirror_trace::
+// LOBE_SAMPLES, a Rust test checks).
+const LOBE_SAMPLES: u32 = 4u;
 
 @group(1) @binding(13) var direction_ids: texture_2d<u32>;
 @group(1) @binding(14) var barycentrics: texture_2d<f32>;
@@ -93,7 +100,7 @@ const MIRROR_DEPTH: u32 = 8u;
 @group(1) @binding(3) var positions: texture_2d<f32>;
 // Face records: 8 texels per face (normal, kind | flags · origin, texel_size · u, width ·
 // v, height · ρ_d/π, texel_base · Le, 0 · base-colour texture, emissive texture, 0, 0 ·
-// mirror reflectance, 0), floats as bits. Also read by vs_surface.
+// mirror reflectance, GGX α), floats as bits. Also read by vs_surface.
 @group(1) @binding(4) var face_records: texture_2d<u32>;
 // Irradiance per atlas texel (rgb; a unused), both sides of every face, in the light field's
 // stored encoding (Rgba16Float for f16 RGB, Rgb9e5Ufloat for RGB9E5): the texel fetch decodes
@@ -255,16 +262,14 @@ fn specular_reflectance(face: u32, f: Face, uv: vec2<f32>) -> vec3<f32> {
     return c;
 }
 
-// The traced chain's specular radiance (rgb) reaching the eye from point `p` of non-diffuse
-// face `face` (record `f`, texture coordinate `uv` at p); w = 1 where the pixel falls back to
-// its tiles instead. Mirrored on the CPU by vlf_gpu::render::mirror_trace::traced_specular.
-fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>) -> vec4<f32> {
-    let d = normalize(p - g.eye.xyz);
-    var n = f.normal;
-    let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
-    var throughput = specular_reflectance(face, f, uv);
-    var dir = normalize(d - 2.0 * dot(d, n) * n);
-    var origin = offset_origin(p, side);
+// The radiance (rgb) the traced chain brings back along `dir` from `origin`, a point of the
+// visible non-diffuse face, times `throughput`; w = 1 where the chain is cut off (by the depth
+// bound or on a mixed face) and the pixel falls back to its tiles. Mirrored on the CPU by
+// vlf_gpu::render::mirror_trace::trace_chain.
+fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> vec4<f32> {
+    var origin = origin0;
+    var dir = dir0;
+    var throughput = throughput0;
     var depth = 1u;
     loop {
         let hit = trace(Ray(origin, 0.0, dir, 3.40282347e38), false);
@@ -276,7 +281,7 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>) -> vec4<f32>
         let b0 = 1.0 - hit.u - hit.v;
         let q = t.p0 * b0 + t.p1 * hit.u + t.p2 * hit.v;
         let hf = load_face(hface);
-        n = hf.normal;
+        let n = hf.normal;
         var huv = vec2<f32>(0.0);
         if is_textured(hf) {
             let k = 3u * hit.tri;
@@ -298,6 +303,45 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>) -> vec4<f32>
     return vec4<f32>(0.0, 0.0, 0.0, 1.0);
 }
 
+// Sample point k of pixel `pixel`'s lobe directions: the R2 sequence (Roberts 2018) shifted by
+// a per-pixel hash (Cranley–Patterson rotation), so that a pixel's points over all its samples
+// stay evenly spread and neighbouring pixels' errors do not line up. Mirrored on the CPU by
+// vlf_gpu::render::mirror_trace::lobe_point.
+fn lobe_point(pixel: u32, k: u32) -> vec2<f32> {
+    let h = pcg_hash(pixel);
+    let shift = vec2<f32>(f32(h & 0xffffu), f32(h >> 16u)) * (1.0 / 65536.0);
+    let x = shift + f32(k) * vec2<f32>(0.75487766, 0.56984029);
+    return x - floor(x);
+}
+
+// The specular radiance (rgb) reaching the eye from point `p` of non-diffuse face `face`
+// (record `f`, texture coordinate `uv` at p); w = the share of it that falls back to the
+// pixel's tiles instead. A perfect mirror (GGX α 0) traces its reflected view ray; a glossy
+// lobe traces LOBE_SAMPLES directions drawn from its visible normals (points `first` … of
+// pixel `pixel`'s sequence), each weighing C · G1(wi) (f cos / pdf of the lobe, no Fresnel).
+// Mirrored on the CPU by vlf_gpu::render::mirror_trace::traced_specular.
+fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, pixel: u32,
+                   first: u32) -> vec4<f32> {
+    let d = normalize(p - g.eye.xyz);
+    let n = f.normal;
+    let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
+    let c = specular_reflectance(face, f, uv);
+    let origin = offset_origin(p, side);
+    let alpha = bitcast<f32>(face_texel(face, 7u).w);
+    if alpha <= 0.0 {
+        return trace_chain(origin, normalize(d - 2.0 * dot(d, n) * n), c);
+    }
+    let wo = to_local(-d, side);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < LOBE_SAMPLES; k += 1u) {
+        let wi = reflect_about(wo, ggx_sample_vndf(wo, alpha, lobe_point(pixel, first + k)));
+        if wi.z > 0.0 {
+            sum += trace_chain(origin, normalize(to_world(wi, side)), c * ggx_g1(wi.z, alpha));
+        }
+    }
+    return sum * (1.0 / f32(LOBE_SAMPLES));
+}
+
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
     return fullscreen_vertex(vi);
@@ -312,12 +356,12 @@ fn shade_surface(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, px: vec2<i32>)
     if SPECULAR && f.kind != FACE_DIFFUSE {
         var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
         if TRACING {
-            traced = traced_specular(face, f, p, uv);
+            let pixel = u32(px.y) * g.width + u32(px.x);
+            traced = traced_specular(face, f, p, uv, pixel, g.sample_index * LOBE_SAMPLES);
         }
+        l += traced.rgb;
         if traced.w != 0.0 {
-            l += specular_radiance(face, f.normal, p, px);
-        } else {
-            l += traced.rgb;
+            l += traced.w * specular_radiance(face, f.normal, p, px);
         }
     }
     return l;

@@ -115,6 +115,7 @@ fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
                 emission: [0.0; 3],
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: NO_TEXTURE,
+                specular_alpha: 0.0,
             }],
             uvs: vec![[[0.0; 2]; 3]; tris.len()],
             ..Shading::empty()

@@ -85,6 +85,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 emission: [0.0; 3],
                 base_color_texture: 0,
                 emissive_texture: NO_TEXTURE,
+                specular_alpha: 0.0,
             },
             SurfaceMaterial {
                 base_color: [1.0; 3],
@@ -92,6 +93,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 emission: [0.0; 3],
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: NO_TEXTURE,
+                specular_alpha: 0.0625,
             },
             SurfaceMaterial {
                 base_color: [0.5, 0.25, 0.125],
@@ -99,6 +101,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 emission: [17.0, 12.0, 4.0],
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: 1,
+                specular_alpha: 0.2,
             },
         ],
         uvs: (0..triangles)
@@ -849,7 +852,7 @@ fn rejects_inconsistent_content() {
         },
     );
     assert_msg(&g, "irradiance texel 1200001: not a stored rgb16f value");
-    // Materials (10 words: base colour, diffuse weight, emission, texture indices).
+    // Materials (10 words: base colour, diffuse weight, emission, texture indices, GGX α).
     let word = |i: usize, size: usize, w: usize, value: u32| {
         move |b: &mut [u8]| {
             let at = i * size + 4 * w;
@@ -882,6 +885,10 @@ fn rejects_inconsistent_content() {
     assert_msg(
         &mat(0, 3, 1.5f32.to_bits()),
         "material 0: diffuse weight 1.5 is not in [0, 1]",
+    );
+    assert_msg(
+        &mat(1, 9, f32::NAN.to_bits()),
+        "material 1: GGX α NaN is not in [0, 1]",
     );
     // Uvs (6 floats per triangle) and textures (width, height, wrap_s, wrap_t).
     let g = patch_section(

@@ -97,6 +97,7 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 emission: [0.0; 3],
                 base_color_texture: tex(0),
                 emissive_texture: NO_TEXTURE,
+                specular_alpha: 0.0,
             },
             SurfaceMaterial {
                 base_color: [0.3; 3],
@@ -104,6 +105,7 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 emission: [4.0, 3.0, 2.0],
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: tex(1),
+                specular_alpha: 0.0,
             },
         ],
         uvs: (0..triangles)

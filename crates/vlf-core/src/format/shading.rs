@@ -18,7 +18,10 @@ pub struct FileMaterial {
     pub base_color_texture: u32,
     /// Index into the `textures` section, or `u32::MAX` for none.
     pub emissive_texture: u32,
-    pub reserved: u32,
+    /// GGX α of the metal lobe (0: a perfect mirror or none). Files written before it existed
+    /// hold 0 here (the word was reserved and written 0), which renders their metals as the
+    /// perfect mirrors they were rendered as then.
+    pub specular_alpha: f32,
 }
 
 /// A triangle's `TEXCOORD_0` at its three corners (24 bytes: u0, v0, u1, v1, u2, v2).
@@ -48,7 +51,7 @@ impl From<&SurfaceMaterial> for FileMaterial {
             emission: m.emission,
             base_color_texture: m.base_color_texture,
             emissive_texture: m.emissive_texture,
-            reserved: 0,
+            specular_alpha: m.specular_alpha,
         }
     }
 }
@@ -61,6 +64,7 @@ impl From<&FileMaterial> for SurfaceMaterial {
             emission: m.emission,
             base_color_texture: m.base_color_texture,
             emissive_texture: m.emissive_texture,
+            specular_alpha: m.specular_alpha,
         }
     }
 }

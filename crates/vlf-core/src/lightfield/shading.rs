@@ -52,6 +52,9 @@ pub struct SurfaceMaterial {
     pub base_color_texture: u32,
     /// Index into [`Shading::textures`] of the emissive texture, or [`NO_TEXTURE`].
     pub emissive_texture: u32,
+    /// GGX α of the metal lobe ([`Material::specular_alpha`]; 0: a perfect mirror, or no
+    /// metal lobe): pass 5 samples the lobe when it traces a reflection.
+    pub specular_alpha: f32,
 }
 
 impl SurfaceMaterial {
@@ -63,6 +66,7 @@ impl SurfaceMaterial {
             emission: m.emission.into(),
             base_color_texture: m.base_color_texture.map_or(NO_TEXTURE, |t| t.index),
             emissive_texture: m.emissive_texture.map_or(NO_TEXTURE, |t| t.index),
+            specular_alpha: m.specular_alpha(),
         }
     }
 
@@ -233,6 +237,9 @@ impl Shading {
                     el(),
                     format!("diffuse weight {} is not in [0, 1]", m.diffuse_weight),
                 );
+            }
+            if !(0.0..=1.0).contains(&m.specular_alpha) {
+                return bad(el(), format!("GGX α {} is not in [0, 1]", m.specular_alpha));
             }
             for (slot, t) in [
                 ("base-colour", m.base_color_texture),

@@ -1,5 +1,5 @@
-//! Pass 5's traced branch for mirror pixels (issue 15 part 1; VLF 2004 §5: "only ES*D rays
-//! must be computed"): the scene's BVH for it and its CPU specification.
+//! Pass 5's traced branch for mirror and glossy pixels (issue 15 part 1, issue 16; VLF 2004
+//! §5: "only ES*D rays must be computed"): the scene's BVH for it and its CPU specification.
 //!
 //! Where the visible face is a mirror or a mixed face, pass 5 replaces the specular part read
 //! from the face's tiles by tracing the reflected view ray (`shaders/render_final_radiance.wgsl`,
@@ -20,6 +20,14 @@
 //!
 //! Emission of mirrors passed along the chain is not added (as in the resampling).
 //!
+//! A glossy visible face (GGX α > 0 in its material, issue 16) traces [`LOBE_SAMPLES`]
+//! directions of its lobe per pass-5 sample instead of the one mirror direction, each chain
+//! following the rules above (further mirrors reflect as perfect mirrors); the share of them
+//! that is cut off reads the tiles. The light field resolves directions only to its spacing
+//! (0.16 rad at the default 246 directions), so a lobe narrower than that is baked as a
+//! mirror: the traced lobe gives such faces their blur back at render time, and gives every
+//! glossy face reflections as sharp as its lobe rather than as its tiles.
+//!
 //! The BVH is built here over the light field's own triangles in VLF coordinates (the
 //! coordinates of every render pass), with [`RtTriangle::material`] holding the triangle's face
 //! and [`RtTriangle::prim`] its index in `LightField::triangles`, and uploaded with the ray
@@ -28,6 +36,9 @@
 use glam::{Vec2, Vec3};
 use vlf_core::lightfield::{FACE_DIFFUSE, FACE_MIRROR, LightField};
 use vlf_core::pathtrace::geometry::offset_ray_origin;
+use vlf_core::pathtrace::sampling::{
+    ggx_g1, ggx_sample_vndf, pcg_hash, reflect, to_local, to_world,
+};
 use vlf_core::pathtrace::{Bvh, Ray, RtTriangle};
 use wgpu::util::DeviceExt;
 
@@ -119,10 +130,44 @@ impl GpuMirrorScene {
     }
 }
 
+/// Directions a glossy pixel traces per sample of pass 5 (see [`traced_specular`]). The WGSL
+/// constant `LOBE_SAMPLES` is checked against it.
+pub const LOBE_SAMPLES: u32 = 4;
+
+/// What pass 5's traced branch brings back for a pixel ([`traced_specular`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TracedSpecular {
+    /// Specular radiance of the traced directions (their chains that were cut off count 0).
+    pub radiance: Vec3,
+    /// Share of the pixel's specular part that falls back to its tiles instead: the traced
+    /// directions whose chain was cut off, over all traced (0 or 1 for a perfect mirror).
+    pub tiles: f32,
+}
+
+/// Sample point `k` of pixel `pixel`'s lobe directions: the R2 sequence (Roberts 2018) shifted
+/// by a per-pixel hash (a Cranley–Patterson rotation), so a pixel's points over all its
+/// samples stay evenly spread and neighbouring pixels' errors do not line up. As pass 5's
+/// `lobe_point`, in f32.
+pub fn lobe_point(pixel: u32, k: u32) -> Vec2 {
+    let h = pcg_hash(pixel);
+    let shift = Vec2::new((h & 0xffff) as f32, (h >> 16) as f32) * (1.0 / 65536.0);
+    let x = shift + k as f32 * Vec2::new(0.754_877_66, 0.569_840_3);
+    x - x.floor()
+}
+
 /// CPU specification of pass 5's traced branch: the specular radiance reaching an eye at `eye`
-/// from the visible point `p` (texture coordinate `uv`) of non-diffuse face `face` along the
-/// traced chain (see the module docs), in f32 in the shader's order of operations; `None` where the pixel falls back to its
-/// tiles. `bvh` is [`build_bvh`]`(lf)`, `offsets` `lf.shading.texture_offsets()`.
+/// from the visible point `p` (texture coordinate `uv`) of non-diffuse face `face`, in f32 in
+/// the shader's order of operations. A perfect mirror (GGX α 0 in its material) traces the
+/// reflected view ray along the chain of the module docs. A glossy lobe (α > 0) traces
+/// [`LOBE_SAMPLES`] directions reflected about normals drawn from its distribution of visible
+/// normals (Heitz 2018) at [`lobe_point`]`(pixel, first + k)`, each weighing C · G1(wi) (the
+/// lobe's f cos / pdf without Fresnel; their mean's expectation is C × the directional albedo,
+/// what the lobe reflects of the light around it): the lobe's blur of what it reflects, which
+/// the tiles' direction spacing cannot resolve for lobes narrower than it. Only the visible
+/// face's lobe is sampled: further mirrors along a chain reflect as perfect mirrors. Pass 5
+/// calls it with `pixel` = row × width + column and `first` = sample index × [`LOBE_SAMPLES`].
+/// `bvh` is [`build_bvh`]`(lf)`, `offsets` `lf.shading.texture_offsets()`.
+#[allow(clippy::too_many_arguments)]
 pub fn traced_specular(
     lf: &LightField,
     bvh: &Bvh,
@@ -131,19 +176,66 @@ pub fn traced_specular(
     face: u32,
     p: Vec3,
     uv: Vec2,
-) -> Option<Vec3> {
+    pixel: u32,
+    first: u32,
+) -> TracedSpecular {
     let f = &lf.faces[face as usize];
     let n = f.normal();
     let d = (p - eye).normalize();
     let side = if visible_side(f, eye, p) == 0 { n } else { -n };
-    let mut throughput = specular_reflectance(lf, offsets, face, uv);
-    let mut dir = (d - 2.0 * d.dot(n) * n).normalize();
-    let mut origin = offset_ray_origin(p, side);
+    let c = specular_reflectance(lf, offsets, face, uv);
+    let origin = offset_ray_origin(p, side);
+    let alpha = lf.shading.materials[f.material as usize].specular_alpha;
+    if alpha <= 0.0 {
+        let (radiance, cut) = trace_chain(
+            lf,
+            bvh,
+            offsets,
+            origin,
+            (d - 2.0 * d.dot(n) * n).normalize(),
+            c,
+        );
+        return TracedSpecular {
+            radiance,
+            tiles: if cut { 1.0 } else { 0.0 },
+        };
+    }
+    let wo = to_local(-d, side);
+    let (mut sum, mut cut) = (Vec3::ZERO, 0.0f32);
+    for k in 0..LOBE_SAMPLES {
+        let wi = reflect(wo, ggx_sample_vndf(wo, alpha, lobe_point(pixel, first + k)));
+        if wi.z > 0.0 {
+            let dir = to_world(wi, side).normalize();
+            let (l, c_off) = trace_chain(lf, bvh, offsets, origin, dir, c * ggx_g1(wi.z, alpha));
+            sum += l;
+            cut += if c_off { 1.0 } else { 0.0 };
+        }
+    }
+    let w = 1.0 / LOBE_SAMPLES as f32;
+    TracedSpecular {
+        radiance: sum * w,
+        tiles: cut * w,
+    }
+}
+
+/// The radiance a traced chain brings back along `dir` from `origin` (a point of the visible
+/// non-diffuse face, already offset) times `throughput`, and whether it was cut off (by the
+/// depth bound or on a mixed face: zero radiance, the tiles stand in). As pass 5's
+/// `trace_chain`.
+fn trace_chain(
+    lf: &LightField,
+    bvh: &Bvh,
+    offsets: &[u64],
+    origin: Vec3,
+    dir: Vec3,
+    throughput: Vec3,
+) -> (Vec3, bool) {
+    let (mut origin, mut dir, mut throughput) = (origin, dir, throughput);
     let mut depth = 1;
     loop {
         let hit = bvh.closest_hit(&Ray::new(origin, dir, f32::MAX));
         if !hit.is_hit() {
-            return Some(throughput * lf.params.sky);
+            return (throughput * lf.params.sky, false);
         }
         let t = &bvh.triangles[hit.tri as usize];
         let face = t.material;
@@ -158,7 +250,8 @@ pub fn traced_specular(
         match f.kind {
             FACE_DIFFUSE => {
                 let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
-                return Some(throughput * surface_radiance(lf, offsets, face, side, q, uv));
+                let l = surface_radiance(lf, offsets, face, side, q, uv);
+                return (throughput * l, false);
             }
             FACE_MIRROR if depth < MAX_DEPTH => {
                 throughput *= specular_reflectance(lf, offsets, face, uv);
@@ -168,7 +261,7 @@ pub fn traced_specular(
                 depth += 1;
             }
             // Cut off by the bound, or a mixed face: the pixel's own tiles.
-            _ => return None,
+            _ => return (Vec3::ZERO, true),
         }
     }
 }

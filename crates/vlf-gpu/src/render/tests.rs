@@ -26,6 +26,7 @@ fn shader_layout_constants_match_rust() {
         ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),
         ("FACE_MIRROR", vlf_core::lightfield::FACE_MIRROR),
         ("MIRROR_DEPTH", super::mirror_trace::MAX_DEPTH),
+        ("LOBE_SAMPLES", super::mirror_trace::LOBE_SAMPLES),
         ("NO_TILE_SLOT", u32::MAX),
     ] {
         assert_eq!(

@@ -26,9 +26,9 @@
 //!   0: normal.xyz, kind | flags · 1: origin.xyz, texel_size · 2: u.xyz, width ·
 //!   3: v.xyz, height · 4: ρ_d/π (rgb), texel_base · 5: Le (rgb), 0 ·
 //!   6: base-colour texture, emissive texture, 0, 0 · 7: mirror reflectance (rgb,
-//!   [`specular_reflectance`]), 0. Pass 5 reads texels 0–4 of every face, 5 only for emitters,
-//!   6 only for textured faces ([`FLAG_DIFFUSE`] and the other flags) and 7 only for mirrors
-//!   along a traced chain ([`super::mirror_trace`]).
+//!   [`specular_reflectance`]), GGX α of the metal lobe (`f32` bits). Pass 5 reads texels 0–4
+//!   of every face, 5 only for emitters, 6 only for textured faces ([`FLAG_DIFFUSE`] and the
+//!   other flags) and 7 only for mirrors along a traced chain ([`super::mirror_trace`]).
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -273,7 +273,10 @@ pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_
         b(rho.into(), f.texel_base),
         b(m.emission, 0),
         [m.base_color_texture, m.emissive_texture, 0, 0],
-        b(specular_reflectance(f, m).into(), 0),
+        b(
+            specular_reflectance(f, m).into(),
+            m.specular_alpha.to_bits(),
+        ),
     ]
 }
 
