@@ -310,7 +310,7 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
 fn lobe_point(pixel: u32, k: u32) -> vec2<f32> {
     let h = pcg_hash(pixel);
     let shift = vec2<f32>(f32(h & 0xffffu), f32(h >> 16u)) * (1.0 / 65536.0);
-    let x = shift + f32(k) * vec2<f32>(0.75487766, 0.56984029);
+    let x = shift + f32(k) * vec2<f32>(0.7548777, 0.5698403);
     return x - floor(x);
 }
 

@@ -151,7 +151,7 @@ pub struct TracedSpecular {
 pub fn lobe_point(pixel: u32, k: u32) -> Vec2 {
     let h = pcg_hash(pixel);
     let shift = Vec2::new((h & 0xffff) as f32, (h >> 16) as f32) * (1.0 / 65536.0);
-    let x = shift + k as f32 * Vec2::new(0.754_877_66, 0.569_840_3);
+    let x = shift + k as f32 * Vec2::new(0.754_877_7, 0.569_840_3);
     x - x.floor()
 }
 
