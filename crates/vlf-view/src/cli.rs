@@ -79,9 +79,9 @@ pub struct Cli {
     #[arg(long, value_enum, default_value_t = TonemapArg::Clamp)]
     pub tonemap: TonemapArg,
 
-    /// Mirror and mixed faces trace their reflection through the scene (on) or read their
-    /// baked tiles (off): stills, --bench-frames and the window's start state (its panel has
-    /// the switch).
+    /// Mirror and mixed faces trace their reflection through the scene (on; glossy metals
+    /// trace 4 directions of their GGX lobe per sample) or read their baked tiles (off):
+    /// stills, --bench-frames and the window's start state (its panel has the switch).
     #[arg(long, value_enum, value_name = "on|off", default_value_t = OnOffArg::On)]
     pub mirror_tracing: OnOffArg,
 
