@@ -169,6 +169,7 @@ pub(super) fn run_iteration(
     let mut e = reference::finish_iteration(
         scene,
         &host.tex_face,
+        host.setup.spec.as_ref().map_or(&[][..], |s| &s.unresolved),
         &acc_host,
         &state.unshot,
         sky,

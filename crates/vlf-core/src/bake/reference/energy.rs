@@ -86,9 +86,15 @@ pub struct TexelAccum {
 /// Step 5: from the accumulators, the next unshot radiance per texel, and the energy terms.
 /// Normalises the quadrature so that Σ|cos|ΔΩ over a texel's valid directions is π (uniform
 /// incoming radiance L then gives irradiance exactly πL: furnace-exact).
+///
+/// `unresolved` (per face, or empty for none): the share of a face's specular part that its
+/// tiles cannot receive because rays reach the face in only some directions
+/// (`SpecularSetup::unresolved`); it leaves with the diffuse part, the rest through the tiles.
+#[allow(clippy::too_many_arguments)]
 pub fn finish_iteration(
     scene: &BakeScene,
     tex_face: &[u32],
+    unresolved: &[f32],
     acc: &[TexelAccum],
     unshot: &[[f32; 4]],
     sky: Vec3,
@@ -110,10 +116,17 @@ pub fn finish_iteration(
         let e_inj = sky * (a.open.w * k) + a.open.truncate();
         let irr = e_surf + e_inj;
         irradiance[t] = (Vec4::from(irradiance[t]) + irr.extend(0.0)).into();
-        let rho = Vec4::from(scene.albedo[t]).truncate();
+        let face = tex_face[t] as usize;
+        let mut rho = Vec4::from(scene.albedo[t]).truncate();
+        // The specular part leaves through the tiles (their power is counted from the tiles),
+        // but for the share the rays cannot carry there.
+        let mut rho_s = Vec4::from(scene.specular[face]).truncate();
+        if let Some(&u) = unresolved.get(face).filter(|&&u| u > 0.0) {
+            rho += rho_s * u;
+            rho_s *= 1.0 - u;
+        }
         let b = rho * irr;
-        // The specular part leaves through the tiles (their power is counted from the tiles).
-        let spec = Vec4::from(scene.specular[tex_face[t] as usize]).truncate() * irr;
+        let spec = rho_s * irr;
         next[t] = (b / std::f32::consts::PI).extend(0.0).into();
         e.received += sum3(e_surf) * area;
         e.injected += sum3(e_inj) * area;

@@ -45,7 +45,9 @@ pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
 pub use interface::{Interface, interface};
 pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe};
 pub use reflect::{nearest_crossing, reflect};
-pub use tiles::{ReflectJob, Specular, SpecularSetup, reflect_jobs, specular_outgoing, tile_index};
+pub use tiles::{
+    ReflectJob, Specular, SpecularSetup, reach_factors, reflect_jobs, specular_outgoing, tile_index,
+};
 pub use transport::{SplitMix64, TransportDir, all_directions, transport_directions};
 
 use glam::{Vec3, Vec4};
@@ -254,6 +256,7 @@ pub fn propagate_with(
         let mut e = finish_iteration(
             scene,
             &tex_face,
+            spec.as_ref().map_or(&[][..], |s| &s.unresolved),
             &acc,
             &unshot,
             sky,

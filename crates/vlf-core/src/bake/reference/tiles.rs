@@ -31,14 +31,7 @@ pub fn tile_index(scene: &BakeScene, set: &DirectionSet, grid: &PsfGrid) -> Tile
             faces.push(fi as u32);
         }
     }
-    // Triangles of each non-diffuse face.
-    let mut tris: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); faces.len()];
-    for t in &scene.triangles {
-        let s = face_slot[t.face as usize];
-        if s != u32::MAX {
-            tris[s as usize].push([t.p0, t.p1, t.p2].map(Vec3::from));
-        }
-    }
+    let tris = slot_triangles(scene, &face_slot, faces.len());
     let tiles = grid.tiles_per_side() as usize;
     let mut index_start = Vec::with_capacity(faces.len() * l + 1);
     let mut tile_ids = Vec::new();
@@ -89,6 +82,80 @@ pub fn tile_index(scene: &BakeScene, set: &DirectionSet, grid: &PsfGrid) -> Tile
         tile_ids,
         coverage,
     }
+}
+
+/// The triangles of every non-diffuse face, by its slot (`face_slot`).
+fn slot_triangles(scene: &BakeScene, face_slot: &[u32], slots: usize) -> Vec<Vec<[Vec3; 3]>> {
+    let mut tris: Vec<Vec<[Vec3; 3]>> = vec![Vec::new(); slots];
+    for t in &scene.triangles {
+        let s = face_slot[t.face as usize];
+        if s != u32::MAX {
+            tris[s as usize].push([t.p0, t.p1, t.p2].map(Vec3::from));
+        }
+    }
+    tris
+}
+
+/// Per non-diffuse face (by slot): the share of the quadrature that reaches it, Σ|n·w|·ΔΩ over
+/// the quadrature directions in which a ray of the grid crosses the face, divided by the same
+/// sum over all of them (1 for a face that no direction meets at |n·w| ≥ `MIN_COS`).
+///
+/// A face smaller than a ray cell is crossed by a ray only in some directions, with a chance
+/// of about its projected area in cells. Its texels' irradiance is the mean over the directions
+/// that reach it (`finish_iteration` divides by Σ|cos|·ΔΩ of the valid directions: what the
+/// missing directions bring is taken to be the mean of the others); the reflect step can carry
+/// into the tiles only the light of the directions that reach it, about this share of what the
+/// texels receive. `finish_iteration` therefore reserves only this share of the specular part
+/// for the tiles and re-emits the rest with the diffuse part ([`SpecularSetup::unresolved`]).
+/// Scaling the reflect jobs up by its inverse instead diverged on cornell-suzanne (a sub-cell
+/// face sends its tiles along the one ray that crosses it, and faces facing each other
+/// amplified each other's).
+pub fn reach_factors(
+    scene: &BakeScene,
+    grid: &PsfGrid,
+    dirs: &[TransportDir],
+    index: &TileIndex,
+) -> Vec<f32> {
+    let tris = slot_triangles(scene, &index.face_slot, index.faces.len());
+    index
+        .faces
+        .iter()
+        .zip(&tris)
+        .map(|(&face, face_tris)| {
+            let n = scene.faces[face as usize].normal();
+            let (mut all, mut reached) = (0f64, 0f64);
+            for d in dirs.iter().filter(|d| d.sun.is_none()) {
+                let c = n.dot(d.frame.w).abs();
+                if c < MIN_COS {
+                    continue;
+                }
+                let wgt = f64::from(c * d.weight);
+                all += wgt;
+                if crosses(face_tris, &d.frame, grid) {
+                    reached += wgt;
+                }
+            }
+            if all > 0.0 {
+                (reached / all) as f32
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// Whether a ray of `grid` in `frame` crosses one of `tris` (the exact test of the cell lists).
+fn crosses(tris: &[[Vec3; 3]], frame: &PsfFrame, grid: &PsfGrid) -> bool {
+    tris.iter().any(|t| {
+        let q = t.map(|p| frame.to_psf(p));
+        let (i0, j0, i1, j1) = cell_range(&q, grid);
+        (j0..=j1).any(|cj| {
+            (i0..=i1).any(|ci| {
+                let (a, b) = grid.cell_center(ci, cj);
+                ray_hit(&q, Vec2::new(a, b)).is_some()
+            })
+        })
+    })
 }
 
 /// Range of cells `(i0, j0, i1, j1)` whose centres a projected triangle's bounding box may
@@ -296,6 +363,10 @@ pub struct SpecularSetup {
     pub frames: Vec<PsfFrame>,
     /// Per transport direction (same order as [`all_directions`](super::all_directions)).
     pub jobs: Vec<Vec<ReflectJob>>,
+    /// Per face (all faces, 0 for diffuse ones): the share of its specular part that the rays
+    /// cannot carry into its tiles, 1 − [`reach_factors`], which `finish_iteration` re-emits
+    /// diffusely. 0 for a face every direction reaches (all but the smallest faces).
+    pub unresolved: Vec<f32>,
 }
 
 impl SpecularSetup {
@@ -310,11 +381,20 @@ impl SpecularSetup {
             return None;
         }
         let index = tile_index(scene, set, grid);
+        let mut unresolved = vec![0f32; scene.faces.len()];
+        for (&face, r) in index
+            .faces
+            .iter()
+            .zip(reach_factors(scene, grid, dirs, &index))
+        {
+            unresolved[face as usize] = 1.0 - r;
+        }
         let jobs = reflect_jobs(scene, set, dirs, &index);
         Some(Self {
             index,
             frames: fixed_frames(set),
             jobs,
+            unresolved,
         })
     }
 }
