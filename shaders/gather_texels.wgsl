@@ -335,6 +335,17 @@ fn strata_point(k: u32, g: u32, r: ptr<function, Rng>) -> vec2<f32> {
     return vec2<f32>(f32(s % g) + j.x, f32(s / g) + j.y) / f32(g);
 }
 
+// gather::spread_point: the point that sample k of n starts from when the texel has len points:
+// k % len when n >= len, else a random one of the k-th of n equal runs of the (stratum-ordered)
+// points, one draw.
+fn spread_point(k: u32, n: u32, len: u32, r: ptr<function, Rng>) -> u32 {
+    if n >= len {
+        return k % len;
+    }
+    let j = rng_next(r) % len;
+    return (k * len + j) / n;
+}
+
 // Radiance arriving along dir from the first hit (emission excluded): Gatherer::field_radiance.
 fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
     let tri = triangles[hit.tri];
@@ -593,7 +604,7 @@ fn light_samples(
     let fl = f32(gg.light_samples);
     let fb = f32(gg.cosine_rays);
     for (var k = gg.k0; k < min(gg.k1, gg.light_samples); k++) {
-        let p = point(k % s.npts);
+        let p = point(spread_point(k, gg.light_samples, s.npts, &rng));
         let u = strata_point(k, gg.light_side, &rng);
         let pe = pick_emitter_remapped(u);
         let e = blob[scene_info.emitter_base + pe.index];
@@ -645,7 +656,7 @@ fn cosine_rays(
     let fl = f32(gg.light_samples);
     let fb = f32(gg.cosine_rays);
     for (var k = gg.k0; k < min(gg.k1, gg.cosine_rays); k++) {
-        let p = point(k % s.npts);
+        let p = point(spread_point(k, gg.cosine_rays, s.npts, &rng));
         let u = strata_point(k, gg.cosine_side, &rng);
         let dir = to_world(cosine_hemisphere(u), n);
         let hit = trace(Ray(offset_origin(p, n), 0.0, dir, FAR), false);

@@ -156,7 +156,7 @@ impl Gatherer<'_> {
         // the point strata).
         let strata = shuffled_strata(n_l, &mut rng);
         for k in 0..n_l as usize {
-            let p = points[k % points.len()];
+            let p = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
             let u = strata.point(k, &mut rng);
             let (e, u) = lights.pick_emitter_remapped(u);
             let tri = &self.ps.bvh.triangles[e.tri as usize];
@@ -189,7 +189,7 @@ impl Gatherer<'_> {
         // Cosine rays: the sky, and emitters weighted against the light samples.
         let strata = shuffled_strata(n_b, &mut rng);
         for k in 0..n_b as usize {
-            let p = points[k % points.len()];
+            let p = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
             let u = strata.point(k, &mut rng);
             let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
             let hit =
@@ -236,6 +236,24 @@ impl Gatherer<'_> {
         }
         Some(sum)
     }
+}
+
+/// The point that sample `k` of `n` starts from when a texel has `len` points: `k % len` when
+/// the samples are as many as the points or more; otherwise a random one of the points in the
+/// `k`-th of `n` equal runs of the point list (point `(k·len + j) / n`, j uniform in 0..len,
+/// one draw), so that every point is equally likely and the samples stay spread over the
+/// texel's strata. The points come in stratum order, so the first `n` of them would cover only
+/// the first rows of the texel: a texel next to a steep source (the 1 cm emitting sides of a
+/// lamp flush with the ceiling) saw it from one edge only, too bright or too dark by the edge's
+/// orientation (cornell-suzanne's ceiling: 3.2× and 0.29× along two sides of its lamp;
+/// `docs/GATHER.md`). The GPU gather draws the same (`spread_point` in
+/// `shaders/gather_texels.wgsl`).
+pub fn spread_point(k: usize, n: usize, len: usize, rng: &mut Rng) -> usize {
+    if n >= len {
+        return k % len;
+    }
+    let j = rng.next_u32() as usize % len;
+    (k * len + j) / n
 }
 
 /// A g × g grid of 2-D strata over [0, 1)² in a random order (so that a texel's point strata and
