@@ -11,11 +11,12 @@
 //! * issue 7 (the light field alone, `--final-gather off`): diffuse Cornell box ≤ 3e-3
 //!   (measured 1.56e-3);
 //! * issue 16 (glossy metal; its lobe sampled where pass 5 traces): cornell-suzanne ≤ 3.2e-4
-//!   (half the 6.4e-4 at the issue; measured 2.48e-4 since sub-cell mirror faces re-emit what
-//!   their tiles cannot receive, 2.70e-4 before); lava-circuit by mean HDR-FLIP, whose
-//!   reference's noise near black pixels makes relMSE meaningless (`reference/README.md`),
-//!   ≤ 0.1875 (half the issue's 0.375; measured 0.1069), its mean radiance within 2 % of the
-//!   reference's (measured 0.3 %; 22–38 % too bright at the issue).
+//!   (half the 6.4e-4 at the issue; measured 1.70e-4 since the final gather's cosine rays
+//!   start from points spread over each texel, 2.48e-4 before, since sub-cell mirror faces
+//!   re-emit what their tiles cannot receive, 2.70e-4 before that); lava-circuit by mean
+//!   HDR-FLIP, whose reference's noise near black pixels makes relMSE meaningless
+//!   (`reference/README.md`), ≤ 0.1875 (half the issue's 0.375; measured 0.1069), its mean
+//!   radiance within 2 % of the reference's (measured 0.3 %; 22–38 % too bright at the issue).
 
 use glam::Vec3;
 use vlf_core::bake::{BakeScene, Quality, auto};
