@@ -358,7 +358,14 @@ pub fn bake_scene(
         params: params.clone(),
         directions: set.len(),
         prepared: prep.summary(),
-        materials: bake::glossy::report(&scene.materials, &set),
+        // As baked: a glossy lobe may have been modelled as a mirror to fit the budget.
+        materials: {
+            let mut r = bake::glossy::report(&scene.materials, &set);
+            for (m, baked) in r.iter_mut().zip(&prep.materials) {
+                m.model = baked.model;
+            }
+            r
+        },
         iterations,
         phases_s: phases,
         total_s,

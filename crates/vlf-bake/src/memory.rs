@@ -44,6 +44,15 @@
 //! to the propagator ([`Planned::params`] and `MemoryPlan::gpu`), which therefore bins every
 //! direction only once more, to upload it.
 //!
+//! The reflect jobs are counted without being made (`SpecularSetup::counted`: a glossy face's
+//! lobe is walked but not normalised, nothing is kept), on both paths, and later made at
+//! exactly that length; while they are made, the lobe of one glossy face at a time is their
+//! working memory (`LOBE_BYTES_PER_JOB` per job of the face with the most). A glossy lobe's
+//! jobs grow with its faces × the directions (~20 per incoming direction and side, against 3
+//! for a mirror), not with the resolution: when the plan does not fit, the glossy lobes are
+//! first modelled as mirrors (a warning; `--json`'s `materials` say `mirror`), and only then
+//! is `--resolution` lowered.
+//!
 //! The plan is an upper bound: the crossing lists assume that every ray meets every triangle
 //! whose bounding box (GPU: whose tile bin) it passes through.
 
@@ -223,6 +232,15 @@ impl MemoryPlan {
             ));
         }
         self.over_budget = over;
+    }
+
+    /// Bytes of the reflect jobs and the GPU's reflect items (host and GPU).
+    fn reflect_bytes(&self) -> u64 {
+        self.items
+            .iter()
+            .filter(|i| i.name.starts_with("reflect") || i.name.starts_with("Bake::reflect"))
+            .map(|i| i.bytes)
+            .sum()
     }
 
     /// The largest items, for messages: `crossing lists 12.0 MiB, texel radiance 3.0 MiB`.
@@ -410,6 +428,9 @@ pub fn plan_and_prepare(
     let mut prep_s = 0.0;
     // Why the requested resolution did not fit (for the warning).
     let mut first_over: Option<Vec<String>> = None;
+    // Glossy lobes modelled as mirrors to fit: the materials, why, the glossy plan's host
+    // bytes and its reflect jobs' and items' bytes.
+    let mut as_mirrors: Option<(Vec<String>, Vec<String>, u64, u64)> = None;
     loop {
         // Cheap check first so a huge texel count is never allocated by the preparation.
         let quick = texel_floor(scene, &params, gpu);
@@ -428,10 +449,28 @@ pub fn plan_and_prepare(
             continue;
         }
         let tp = Instant::now();
-        let prep = BakeScene::new(scene, &params).context("preparing the scene")?;
+        let mut prep = BakeScene::new(scene, &params).context("preparing the scene")?;
+        if as_mirrors.is_some() {
+            glossy_as_mirrors(scene, &mut prep);
+        }
         prep_s += tp.elapsed().as_secs_f64();
         let mut plan = plan_prepared(scene, &prep, &set, &params, gpu, software, budget);
         plan.check(software);
+        // A glossy lobe's reflect jobs grow with the faces and directions, not the resolution:
+        // model its lobes as mirrors (three jobs per incoming direction) before lowering it.
+        if !plan.fits() && as_mirrors.is_none() {
+            let materials = glossy_as_mirrors(scene, &mut prep);
+            if !materials.is_empty() {
+                log::debug!("{}: {plan}", scene_path.display());
+                as_mirrors = Some((
+                    materials,
+                    plan.over_budget.clone(),
+                    plan.host_charged(software),
+                    plan.reflect_bytes(),
+                ));
+                continue;
+            }
+        }
         if !plan.fits()
             && let Some(lower) = halve(&params)
         {
@@ -450,7 +489,21 @@ pub fn plan_and_prepare(
             }
             .into());
         }
-        let mut prep = prep;
+        if let Some((materials, why, glossy_bytes, glossy_jobs)) = &as_mirrors {
+            prep.warnings.push(format!(
+                "glossy lobes modelled as mirrors (materials: {}) to fit the memory budget: as directional tiles the bake needs {} ({} of it the reflect jobs): {}; now it needs {} of host memory{} (raise --max-memory, or lower --directions, to keep the lobes)",
+                materials.join(", "),
+                human(*glossy_bytes),
+                human(*glossy_jobs),
+                why.join("; "),
+                human(plan.host_bytes),
+                if plan.device_bytes > 0 {
+                    format!(" and {} of GPU buffers", human(plan.device_bytes))
+                } else {
+                    String::new()
+                }
+            ));
+        }
         if params.resolution != requested.resolution {
             plan.lowered_from = Some(requested.resolution);
             let why = first_over.unwrap_or_default();
@@ -483,6 +536,28 @@ pub fn plan_and_prepare(
             plan,
         });
     }
+}
+
+/// Models every glossy lobe of `prep` (directional tiles) as a mirror, the model of a lobe
+/// narrower than the direction spacing (`glossy::model`, scaled by its directional albedo);
+/// the names of the materials it changed.
+pub fn glossy_as_mirrors(scene: &Scene, prep: &mut BakeScene) -> Vec<String> {
+    use vlf_core::bake::glossy::SpecularModel;
+    let as_mirror = |model: &mut SpecularModel| match *model {
+        SpecularModel::Tiles { alpha } => {
+            *model = SpecularModel::Mirror { alpha };
+            true
+        }
+        _ => false,
+    };
+    prep.lobes.iter_mut().for_each(|l| {
+        as_mirror(l);
+    });
+    prep.materials
+        .iter_mut()
+        .zip(&scene.materials)
+        .filter_map(|(b, m)| as_mirror(&mut b.model).then(|| m.name.clone()))
+        .collect()
 }
 
 /// The next lower resolution: half of it, the tile lowered to the largest divisor of the new

@@ -2,6 +2,7 @@
 //! of the propagator's own `BakePlan` (formulas in the module documentation of `memory`).
 
 use vlf_core::bake::BakeScene;
+use vlf_core::bake::glossy::SpecularModel;
 use vlf_core::bake::reference::{self, ReflectJob, SpecularSetup};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::BakeParams;
@@ -167,8 +168,10 @@ pub fn plan_prepared(
     let x = prep.texel_count() as u64;
 
     // The GPU path: the propagator's own plan (it bins every direction once, makes the chunks
-    // and the mirror tiles). The CPU path: the mirror tiles, exactly as SpecularSetup::new
-    // builds them, and the bins and bounding boxes of every direction.
+    // and the mirror tile index, and counts the reflect jobs). The CPU path: the mirror tile
+    // index and the reflect jobs counted as SpecularSetup::new makes them (glossy lobes
+    // walked, not normalised, nothing kept), and the bins and bounding boxes of every
+    // direction.
     let (gpu_plan, mirror, transport, k_max, binned_max, box_cells_max) = if gpu {
         let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
         let plan = BakePlan::new(prep, set, params, limit, None);
@@ -185,13 +188,18 @@ pub fn plan_prepared(
         )
     } else {
         let (dirs, _quadrature) = reference::all_directions(prep, set, params);
-        let mirror = MirrorCounts::new(
-            SpecularSetup::new(prep, set, &grid, &dirs).as_ref(),
-            dirs.len(),
-        );
+        // Counted, not made (as the GPU plan does): the reflect jobs may be what does not fit.
+        let counted = SpecularSetup::counted(prep, set, &grid, &dirs);
+        let mirror = MirrorCounts::counted(counted.as_ref(), set.len(), dirs.len());
         let (k_max, binned_max, box_cells_max) = scan_directions(prep, &dirs, &grid);
         (None, mirror, dirs.len(), k_max, binned_max, box_cells_max)
     };
+    // The lobe of one glossy face at a time (bounded by the jobs of the face with the most).
+    let glossy = prep
+        .lobes
+        .iter()
+        .any(|l| matches!(l, SpecularModel::Tiles { .. }));
+    let lobe_jobs = if glossy { mirror.face_jobs_max } else { 0 };
     let tile_values = mirror.tile_values;
     let index_words = mirror.index_words;
     let jobs = mirror.reflect_jobs;
@@ -331,6 +339,15 @@ pub fn plan_prepared(
             item("projected triangles (one direction)", "host", tris, 36, 1),
             item("encoded output file", "host", file, 1, 1),
         ]);
+    }
+    if lobe_jobs > 0 {
+        items.push(item(
+            "glossy lobe (one face, while the jobs are made)",
+            "host",
+            lobe_jobs,
+            reference::LOBE_BYTES_PER_JOB,
+            1,
+        ));
     }
     // Every item's count fits easily; saturate anyway so absurd inputs cannot wrap.
     let sum = |items: &[PlanItem], place: &str| {

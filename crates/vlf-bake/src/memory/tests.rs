@@ -339,3 +339,100 @@ fn gpu_plan_splits_the_bins_into_chunks_as_the_propagator_does() {
     let big = tiny.largest_buffer.as_ref().unwrap();
     assert!(big.bytes >= one_dir && big.bytes > one_dir - 4, "{big:?}");
 }
+
+/// The bundled mirror Cornell box with its mirror made a glossy metal (α 0.25: directional
+/// tiles at 46 directions).
+fn glossy_cornell() -> Scene {
+    let mut scene = cornell();
+    let mirror = scene
+        .materials
+        .iter_mut()
+        .find(|m| m.name == "mirror")
+        .expect("the mirror material");
+    mirror.metallic = 1.0;
+    mirror.roughness = 0.5;
+    scene
+}
+
+/// Issue 16: the glossy lobes' reflect jobs are in the plan before they are made — counted
+/// without making them, the figure equals what `SpecularSetup::new` then allocates (CPU jobs,
+/// exact capacities; GPU reflect items per direction) — and a budget they do not fit makes the
+/// lobes mirrors, with a warning, rather than lowering the resolution or running out.
+#[test]
+fn glossy_lobes_are_planned_before_they_are_made_and_become_mirrors_to_fit() {
+    use vlf_core::bake::glossy::SpecularModel;
+    let scene = glossy_cornell();
+    let p = BakeParams {
+        directions: 46,
+        resolution: 16,
+        tile: 8,
+        ..BakeParams::paper()
+    };
+    let cpu = Compute::Cpu("test".into());
+    let planned = plan_and_prepare(&scene, &p, &cpu, &Budget::default(), Path::new("t")).unwrap();
+    let (prep, set, plan) = (&planned.prep, &planned.set, &planned.plan);
+    let glossy = |prep: &BakeScene| {
+        prep.lobes
+            .iter()
+            .filter(|l| matches!(l, SpecularModel::Tiles { .. }))
+            .count()
+    };
+    assert!(glossy(prep) > 0, "{:?}", prep.lobes);
+    let item = |plan: &MemoryPlan, name: &str| {
+        plan.items
+            .iter()
+            .find(|i| i.name == name)
+            .unwrap_or_else(|| panic!("no {name} in {plan}"))
+            .clone()
+    };
+    let grid = vlf_core::psf::PsfGrid::new(p.resolution, p.tile).unwrap();
+    let (dirs, _) = reference::all_directions(prep, set, &p);
+    let setup = reference::SpecularSetup::new(prep, set, &grid, &dirs).unwrap();
+    let made: u64 = setup.jobs.iter().map(|j| j.len() as u64).sum();
+    let allocated: u64 = setup.jobs.iter().map(|j| j.capacity() as u64).sum();
+    let jobs = item(plan, "reflect jobs");
+    assert_eq!(jobs.count, made);
+    assert_eq!(
+        allocated, made,
+        "the job lists are allocated at their length"
+    );
+    assert_eq!(jobs.bytes, made * size_of::<reference::ReflectJob>() as u64);
+    let lobe = item(plan, "glossy lobe (one face, while the jobs are made)");
+    assert!(lobe.count > 0 && lobe.count < made, "{lobe:?}");
+    // The GPU plan's counts (items per direction) are those of the made jobs.
+    let gpu = vlf_gpu::bake::BakePlan::new(prep, set, &p, u64::MAX, None);
+    let from_jobs = vlf_gpu::bake::MirrorCounts::new(Some(&setup), dirs.len());
+    assert_eq!(gpu.mirror, from_jobs);
+    assert_eq!(gpu.mirror.reflect_jobs, made);
+
+    // A budget one byte short: the lobes become mirrors, the resolution stays.
+    let tight = Budget {
+        host: Some(Limit {
+            bytes: plan.host_bytes - 1,
+            source: "test".into(),
+        }),
+        ..Budget::default()
+    };
+    let fitted = plan_and_prepare(&scene, &p, &cpu, &tight, Path::new("t")).unwrap();
+    assert!(fitted.plan.fits(), "{}", fitted.plan);
+    assert_eq!(fitted.params, p);
+    assert_eq!(glossy(&fitted.prep), 0);
+    let mirrored = fitted
+        .prep
+        .materials
+        .iter()
+        .zip(&scene.materials)
+        .find(|(_, m)| m.name == "mirror")
+        .map(|(b, _)| b.model);
+    assert_eq!(mirrored, Some(SpecularModel::Mirror { alpha: 0.25 }));
+    assert!(item(&fitted.plan, "reflect jobs").count < made / 2);
+    assert!(
+        fitted
+            .prep
+            .warnings
+            .iter()
+            .any(|w| w.contains("glossy lobes modelled as mirrors (materials: mirror)")),
+        "{:?}",
+        fitted.prep.warnings
+    );
+}

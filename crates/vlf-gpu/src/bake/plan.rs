@@ -10,9 +10,11 @@
 //! checks that it bins every direction to exactly those counts.
 
 use vlf_core::bake::BakeScene;
-use vlf_core::bake::reference::{self, SpecularSetup, TransportDir, bin_triangles, project};
+use vlf_core::bake::reference::{
+    self, ReflectCounts, SpecularSetup, TransportDir, bin_triangles, project,
+};
 use vlf_core::directions::DirectionSet;
-use vlf_core::lightfield::BakeParams;
+use vlf_core::lightfield::{BakeParams, TileIndex};
 use vlf_core::psf::PsfGrid;
 
 use super::chunks::{Chunk, ChunkBytes, Chunker, chunk_cap};
@@ -214,6 +216,8 @@ pub struct MirrorCounts {
     pub reflect_jobs: u64,
     /// Reflect items per transport direction (one per destination tile slot of a job).
     pub items: Vec<u32>,
+    /// Reflect jobs of the face with the most (`ReflectCounts::face_jobs_max`).
+    pub face_jobs_max: u64,
 }
 
 impl MirrorCounts {
@@ -240,12 +244,43 @@ impl MirrorCounts {
                     .sum()
             })
             .collect();
+        let mut face_jobs = vec![0u64; ix.faces.len()];
+        for job in s.jobs.iter().flatten() {
+            face_jobs[ix.face_slot[job.face as usize] as usize] += 1;
+        }
         MirrorCounts {
             tile_values: ix.value_len() as u64,
             index_words: index_words as u64,
             frames: s.frames.len() as u64,
             reflect_jobs: s.jobs.iter().map(|j| j.len() as u64).sum(),
             items,
+            face_jobs_max: face_jobs.into_iter().max().unwrap_or(0),
+        }
+    }
+
+    /// The counts [`MirrorCounts::new`] takes from the jobs of a `SpecularSetup`, from its
+    /// tile index and the jobs counted without making them (`SpecularSetup::counted`): what a
+    /// memory plan reads, before the jobs are allocated.
+    pub fn counted(
+        counted: Option<&(TileIndex, ReflectCounts)>,
+        frames: usize,
+        transport_directions: usize,
+    ) -> MirrorCounts {
+        let Some((ix, counts)) = counted else {
+            return MirrorCounts {
+                items: vec![0; transport_directions],
+                ..MirrorCounts::default()
+            };
+        };
+        let index_words =
+            ix.face_slot.len() + ix.index_start.len() + ix.tile_ids.len() + ix.coverage.len();
+        MirrorCounts {
+            tile_values: ix.value_len() as u64,
+            index_words: index_words as u64,
+            frames: frames as u64,
+            reflect_jobs: counts.total_jobs(),
+            items: counts.slots.iter().map(|&s| s as u32).collect(),
+            face_jobs_max: counts.face_jobs_max,
         }
     }
 
@@ -349,9 +384,14 @@ impl BakePlan {
         binding_limit: u64,
         max_chunk_bytes: Option<u64>,
     ) -> BakePlan {
-        let setup = Setup::new(scene, set, params);
+        // Counted, not made: the reflect jobs (glossy lobes especially) may be what does not
+        // fit the budget this plan is checked against.
+        let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
+        let (dirs, _) = reference::all_directions(scene, set, params);
+        let counted = SpecularSetup::counted(scene, set, &grid, &dirs);
+        let mirror = MirrorCounts::counted(counted.as_ref(), set.len(), dirs.len());
         let cap = chunk_cap(binding_limit, max_chunk_bytes);
-        BakePlan::from_setup(scene, params, &setup, cap)
+        BakePlan::from_counts(scene, params, &grid, &dirs, mirror, cap)
     }
 
     pub(super) fn from_setup(
@@ -361,11 +401,22 @@ impl BakePlan {
         cap: u64,
     ) -> BakePlan {
         let mirror = MirrorCounts::new(setup.spec.as_ref(), setup.dirs.len());
+        BakePlan::from_counts(scene, params, &setup.grid, &setup.dirs, mirror, cap)
+    }
+
+    fn from_counts(
+        scene: &BakeScene,
+        params: &BakeParams,
+        grid: &PsfGrid,
+        dirs: &[TransportDir],
+        mirror: MirrorCounts,
+        cap: u64,
+    ) -> BakePlan {
         let mut chunker = Chunker::new(cap);
         let mut k_max = 1;
-        let mut direction_bytes_all = Vec::with_capacity(setup.dirs.len());
-        for (d, &items) in setup.dirs.iter().zip(&mirror.items) {
-            let bins = bin_triangles(&project(scene, &d.frame), &setup.grid);
+        let mut direction_bytes_all = Vec::with_capacity(dirs.len());
+        for (d, &items) in dirs.iter().zip(&mirror.items) {
+            let bins = bin_triangles(&project(scene, &d.frame), grid);
             k_max = k_max.max(bins.max_len());
             let bytes = direction_bytes(&bins, items);
             chunker.push(bytes);
@@ -375,7 +426,7 @@ impl BakePlan {
         let mut plan = BakePlan {
             resolution: params.resolution,
             tile: params.tile,
-            transport_directions: setup.dirs.len(),
+            transport_directions: dirs.len(),
             triangles: scene.triangles.len() as u64,
             faces: scene.faces.len() as u64,
             texels: scene.texel_count() as u64,

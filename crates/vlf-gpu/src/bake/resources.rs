@@ -47,7 +47,12 @@ fn tile_data(spec: &SpecularSetup) -> TileData {
         .iter()
         .flat_map(|f| [f.u, f.v, f.w].map(|a| a.extend(0.0).to_array()))
         .collect();
-    let mut items = Vec::new();
+    // Allocated at its final length (the plan's `reflect items`), not grown.
+    let slots = |job: &reference::ReflectJob| {
+        let k = ix.face_slot[job.face as usize] as usize * ix.directions as usize + job.j as usize;
+        (ix.index_start[k + 1] - ix.index_start[k]) as usize
+    };
+    let mut items = Vec::with_capacity(spec.jobs.iter().flatten().map(slots).sum());
     let mut item_ranges = Vec::with_capacity(spec.jobs.len());
     for jobs in &spec.jobs {
         let first = items.len() as u32;

@@ -111,6 +111,30 @@ pub fn face_lobe(
     normal: Vec3,
     albedo: &GgxAlbedo,
 ) -> (Vec<LobeColumn>, Normalisation) {
+    face_lobe_with(set, adjacency, dirs, normal, albedo, true)
+}
+
+/// [`face_lobe`]'s columns with their targets as it makes them (step 1), without
+/// the normalisation (step 2), which changes no target but costs the most: what the memory
+/// plan counts (`tiles::reflect_counts`). Their weights are not the lobe's.
+pub fn face_lobe_support(
+    set: &DirectionSet,
+    adjacency: &Adjacency,
+    dirs: &[TransportDir],
+    normal: Vec3,
+    albedo: &GgxAlbedo,
+) -> Vec<LobeColumn> {
+    face_lobe_with(set, adjacency, dirs, normal, albedo, false).0
+}
+
+fn face_lobe_with(
+    set: &DirectionSet,
+    adjacency: &Adjacency,
+    dirs: &[TransportDir],
+    normal: Vec3,
+    albedo: &GgxAlbedo,
+    normalised: bool,
+) -> (Vec<LobeColumn>, Normalisation) {
     let n2 = set.sphere_vertex_count();
     let l = set.len() as u32;
     let mut walk = Walk::new(n2);
@@ -146,7 +170,11 @@ pub fn face_lobe(
             entries,
         });
     }
-    let norm = normalise(set, normal, albedo, &mut cols);
+    let norm = if normalised {
+        normalise(set, normal, albedo, &mut cols)
+    } else {
+        Normalisation::default()
+    };
     let out = cols
         .into_iter()
         .flat_map(|c| {

@@ -43,10 +43,11 @@ pub use energy::{
 };
 pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
 pub use interface::{Interface, interface};
-pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe};
+pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe, face_lobe_support};
 pub use reflect::{nearest_crossing, reflect};
 pub use tiles::{
-    ReflectJob, Specular, SpecularSetup, reach_factors, reflect_jobs, specular_outgoing, tile_index,
+    LOBE_BYTES_PER_JOB, ReflectCounts, ReflectJob, Specular, SpecularSetup, reach_factors,
+    reflect_counts, reflect_jobs, specular_outgoing, tile_index,
 };
 pub use transport::{SplitMix64, TransportDir, all_directions, transport_directions};
 

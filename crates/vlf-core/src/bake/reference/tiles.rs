@@ -231,14 +231,97 @@ pub struct ReflectJob {
 /// direction spacing, α > 0, is further scaled by its directional albedo); a sun's three
 /// destinations are normalised to conserve its reflected power instead. Glossy faces
 /// ([`SpecularModel::Tiles`]): the lobe's weights ([`lobe::face_lobe`]).
+///
+/// Each direction's list is allocated at its final length ([`reflect_counts`] first, which
+/// walks the glossy lobes without normalising them), so the jobs take exactly what the
+/// memory plan counts for them, not what a growing vector over-allocates (up to twice).
 pub fn reflect_jobs(
     scene: &BakeScene,
     set: &DirectionSet,
     dirs: &[TransportDir],
     index: &TileIndex,
 ) -> Vec<Vec<ReflectJob>> {
+    let counts = reflect_counts(scene, set, dirs, index);
+    let mut out: Vec<Vec<ReflectJob>> = counts
+        .jobs
+        .iter()
+        .map(|&n| Vec::with_capacity(n as usize))
+        .collect();
+    visit_reflect_jobs(scene, set, dirs, index, true, &mut |di, job| {
+        out[di].push(job)
+    });
+    out
+}
+
+/// What the reflect jobs of a bake take, counted without making them ([`reflect_jobs`]
+/// makes exactly these).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReflectCounts {
+    /// Jobs per transport direction.
+    pub jobs: Vec<u64>,
+    /// Per transport direction: Σ over its jobs of the tile slots of the job's face and fixed
+    /// direction (the GPU's reflect items).
+    pub slots: Vec<u64>,
+    /// Jobs of the face with the most: with glossy faces, a bound on the working memory of
+    /// the lobe [`reflect_jobs`] makes at a time besides the jobs ([`LOBE_BYTES_PER_JOB`]).
+    pub face_jobs_max: u64,
+}
+
+impl ReflectCounts {
+    pub fn total_jobs(&self) -> u64 {
+        self.jobs.iter().sum()
+    }
+}
+
+/// Bytes per reflect job of a glossy face's lobe while it is made: its (vertex, f32) target
+/// (8), and for every other job (the two sides share a column) the column entry (vertex, f64
+/// value: 16) and the sorted vertex list of the support's symmetrisation (4), rounded up for
+/// the vectors' growth.
+pub const LOBE_BYTES_PER_JOB: u64 = 24;
+
+/// Counts the reflect jobs of every transport direction ([`reflect_jobs`]) without making
+/// them: glossy lobes are walked but not normalised.
+pub fn reflect_counts(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    dirs: &[TransportDir],
+    index: &TileIndex,
+) -> ReflectCounts {
+    let mut out = ReflectCounts {
+        jobs: vec![0; dirs.len()],
+        slots: vec![0; dirs.len()],
+        face_jobs_max: 0,
+    };
+    let mut face = u32::MAX;
+    let mut face_jobs = 0u64;
+    visit_reflect_jobs(scene, set, dirs, index, false, &mut |di, job| {
+        out.jobs[di] += 1;
+        let mf = index.face_slot[job.face as usize] as usize;
+        let k = mf * index.directions as usize + job.j as usize;
+        out.slots[di] += u64::from(index.index_start[k + 1] - index.index_start[k]);
+        // A face's jobs come one after the other.
+        if job.face != face {
+            face = job.face;
+            face_jobs = 0;
+        }
+        face_jobs += 1;
+        out.face_jobs_max = out.face_jobs_max.max(face_jobs);
+    });
+    out
+}
+
+/// Every reflect job, face after face, handed to `sink` with its transport direction;
+/// `normalised` false skips the glossy lobes' normalisation (the jobs are then the right
+/// ones with wrong weights, for counting).
+fn visit_reflect_jobs(
+    scene: &BakeScene,
+    set: &DirectionSet,
+    dirs: &[TransportDir],
+    index: &TileIndex,
+    normalised: bool,
+    sink: &mut dyn FnMut(usize, ReflectJob),
+) {
     let l = set.len() as u32;
-    let mut out = vec![Vec::new(); dirs.len()];
     let mut albedos: Vec<GgxAlbedo> = Vec::new();
     let mut adjacency = None;
     for &face in &index.faces {
@@ -253,24 +336,34 @@ pub fn reflect_jobs(
         let albedo = albedos.iter().find(|a| alpha > 0.0 && a.alpha == alpha);
         if let (SpecularModel::Tiles { .. }, Some(albedo)) = (model, albedo) {
             let adjacency = adjacency.get_or_insert_with(|| lobe::Adjacency::new(set));
-            let (columns, norm) = lobe::face_lobe(set, adjacency, dirs, n, albedo);
-            if norm.row_error > 1e-3 {
-                log::warn!(
-                    "glossy face {face}: lobe normalisation left rows {:.2e} off after {} iterations",
-                    norm.row_error,
-                    norm.iterations
-                );
-            }
+            let columns = if normalised {
+                let (columns, norm) = lobe::face_lobe(set, adjacency, dirs, n, albedo);
+                if norm.row_error > 1e-3 {
+                    log::warn!(
+                        "glossy face {face}: lobe normalisation left rows {:.2e} off after {} iterations",
+                        norm.row_error,
+                        norm.iterations
+                    );
+                }
+                columns
+            } else {
+                lobe::face_lobe_support(set, adjacency, dirs, n, albedo)
+            };
             for c in columns {
                 let loss = (1.0 - c.albedo) / c.albedo;
-                out[c.dir].extend(c.targets.iter().map(|&(v, w)| ReflectJob {
-                    face,
-                    incoming_sense: c.sense,
-                    j: v % l,
-                    sense: v / l,
-                    weight: rho * w,
-                    loss,
-                }));
+                for &(v, w) in &c.targets {
+                    sink(
+                        c.dir,
+                        ReflectJob {
+                            face,
+                            incoming_sense: c.sense,
+                            j: v % l,
+                            sense: v / l,
+                            weight: rho * w,
+                            loss,
+                        },
+                    );
+                }
             }
             continue;
         }
@@ -334,18 +427,20 @@ pub fn reflect_jobs(
                 if albedo.is_some() {
                     weight *= keep;
                 }
-                out[di].push(ReflectJob {
-                    face,
-                    incoming_sense: sense,
-                    j: verts[k] % l,
-                    sense: verts[k] / l,
-                    weight,
-                    loss,
-                });
+                sink(
+                    di,
+                    ReflectJob {
+                        face,
+                        incoming_sense: sense,
+                        j: verts[k] % l,
+                        sense: verts[k] / l,
+                        weight,
+                        loss,
+                    },
+                );
             }
         }
     }
-    out
 }
 
 /// The non-diffuse state of an iteration: tile index, fixed-direction frames and the unshot
@@ -396,5 +491,21 @@ impl SpecularSetup {
             jobs,
             unresolved,
         })
+    }
+
+    /// The tile index and what [`SpecularSetup::new`]'s jobs will take, without making them
+    /// (for a memory plan); `None` when the scene has no mirror or mixed face.
+    pub fn counted(
+        scene: &BakeScene,
+        set: &DirectionSet,
+        grid: &PsfGrid,
+        dirs: &[TransportDir],
+    ) -> Option<(TileIndex, ReflectCounts)> {
+        if scene.faces.iter().all(|f| f.kind == FACE_DIFFUSE) {
+            return None;
+        }
+        let index = tile_index(scene, set, grid);
+        let counts = reflect_counts(scene, set, dirs, &index);
+        Some((index, counts))
     }
 }
