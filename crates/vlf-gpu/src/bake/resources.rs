@@ -31,7 +31,7 @@ pub(super) struct TileData {
     item_ranges: Vec<(u32, u32)>,
 }
 
-fn tile_data(spec: &SpecularSetup) -> TileData {
+fn tile_data(spec: &SpecularSetup, host_specular: &[[f32; 4]]) -> TileData {
     let ix = &spec.index;
     let mut packed = Vec::new();
     let mut offsets = [0u32; 4];
@@ -61,11 +61,11 @@ fn tile_data(spec: &SpecularSetup) -> TileData {
             let k = mf * ix.directions as usize + job.j as usize;
             for slot in ix.index_start[k]..ix.index_start[k + 1] {
                 items.push(ReflectItem {
-                    weight: job.weight.extend(job.loss).to_array(),
+                    weight: job.rgb_weight(host_specular).extend(job.loss).to_array(),
                     slot,
                     face: job.face,
                     j: job.j,
-                    senses: job.incoming_sense | (job.sense << 1),
+                    senses: u32::from(job.incoming_sense) | (u32::from(job.sense) << 1),
                 });
             }
         }
@@ -107,7 +107,7 @@ impl<'a> Host<'a> {
         setup: Option<Setup>,
     ) -> Host<'a> {
         let mut setup = setup.unwrap_or_else(|| Setup::new(scene, set, params));
-        let tiles = setup.spec.as_ref().map(tile_data);
+        let tiles = setup.spec.as_ref().map(|s| tile_data(s, &scene.specular));
         if let Some(s) = &mut setup.spec {
             // The jobs live on in the reflect items; only the index is needed from here on.
             s.jobs = Vec::new();

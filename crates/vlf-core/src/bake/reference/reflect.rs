@@ -67,7 +67,7 @@ pub fn reflect(
                     (None, _) => cr.from_above + sky * f32::from(u8::from(cr.last)),
                 };
                 let i = (slot * 2 + job.sense as usize) * (m * m) as usize + local as usize;
-                let c = arriving * job.weight;
+                let c = arriving * job.rgb_weight(&scene.specular);
                 // The fourth component counts what the lobe absorbed (energy bookkeeping).
                 next.push((i as u32, c.extend((c.x + c.y + c.z) * job.loss)));
             }

@@ -205,21 +205,34 @@ pub fn specular_outgoing(
 
 /// One destination of the reflect step: incoming light of transport direction `dir` (sense
 /// `incoming_sense`: 0 = travelling +w, 1 = −w) on non-diffuse face `face` goes, reflected, to
-/// fixed direction `j`, sense `sense`, with weight `weight` (mirror: ρ_s × barycentric ×
-/// ΔΩ_t / W_v; glossy: ρ_s × the lobe's weight, `lobe`).
+/// fixed direction `j`, sense `sense`, with weight ρ_s × `weight` (mirror: barycentric ×
+/// ΔΩ_t / W_v; glossy: the lobe's weight, `lobe`), ρ_s the face's specular reflectance
+/// (`BakeScene::specular`, [`ReflectJob::rgb_weight`]).
+///
+/// 20 bytes: a glossy face has ~25 jobs per incoming direction and side, so the jobs are most
+/// of a glossy bake's memory (the reflectance, the same for all of a face's jobs, is not
+/// repeated in each; 32 bytes before).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReflectJob {
     pub face: u32,
-    pub incoming_sense: u32,
     pub j: u32,
-    pub sense: u32,
-    /// Multiplies the arriving radiance (or the sun's irradiance).
-    pub weight: Vec3,
+    /// Times ρ_s, multiplies the arriving radiance (or the sun's irradiance).
+    pub weight: f32,
     /// What the lobe absorbs per unit it reflects here, `(1 − A)/A` with A its directional
     /// albedo for the incoming direction (0 for a perfect mirror): the reflect step adds
     /// `loss × Σ rgb` of what it writes to the destination's fourth component, which the
     /// energy bookkeeping counts as absorbed (`energy::take_tile_loss`).
     pub loss: f32,
+    pub incoming_sense: u8,
+    pub sense: u8,
+}
+
+impl ReflectJob {
+    /// The weight per colour: ρ_s of the face × [`ReflectJob::weight`] (`specular`: the
+    /// scene's, per face), the same product on the CPU and in the GPU's reflect items.
+    pub fn rgb_weight(&self, specular: &[[f32; 4]]) -> Vec3 {
+        Vec4::from(specular[self.face as usize]).truncate() * self.weight
+    }
 }
 
 /// Reflect jobs of every transport direction (outer index = direction, including suns last).
@@ -327,7 +340,6 @@ fn visit_reflect_jobs(
     for &face in &index.faces {
         let f = &scene.faces[face as usize];
         let n = f.normal();
-        let rho = Vec4::from(scene.specular[face as usize]).truncate();
         let model = scene.lobes[face as usize];
         let alpha = model.alpha();
         if alpha > 0.0 && !albedos.iter().any(|a| a.alpha == alpha) {
@@ -356,11 +368,11 @@ fn visit_reflect_jobs(
                         c.dir,
                         ReflectJob {
                             face,
-                            incoming_sense: c.sense,
                             j: v % l,
-                            sense: v / l,
-                            weight: rho * w,
+                            weight: w,
                             loss,
+                            incoming_sense: c.sense as u8,
+                            sense: (v / l) as u8,
                         },
                     );
                 }
@@ -423,19 +435,20 @@ fn visit_reflect_jobs(
                     }
                     _ => continue,
                 };
-                let mut weight = rho * weight;
-                if albedo.is_some() {
-                    weight *= keep;
-                }
+                let weight = if albedo.is_some() {
+                    weight * keep
+                } else {
+                    weight
+                };
                 sink(
                     di,
                     ReflectJob {
                         face,
-                        incoming_sense: sense,
                         j: verts[k] % l,
-                        sense: verts[k] / l,
                         weight,
                         loss,
+                        incoming_sense: sense as u8,
+                        sense: (verts[k] / l) as u8,
                     },
                 );
             }
