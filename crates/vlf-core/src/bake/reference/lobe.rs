@@ -18,8 +18,8 @@
 //!    perturbed copies: every column is then also a vertex): entry `(v, from u)` is kept
 //!    whenever `(u, from v)` is, with the same value (M₀ is symmetric). Each column's
 //!    truncation alone left rows near the horizon that a single column reached, and step 2
-//!    could then never meet their targets (cornell-suzanne at 606 directions: rows 1–39 %
-//!    off after 1000 iterations on 2 % of Suzanne's faces); with it, every one of them
+//!    could then never meet their targets (cornell-suzanne at 606 directions: rows 0.2–61 %
+//!    off after 1000 iterations on 144 of Suzanne's 3,883 faces); with it, every one of them
 //!    converges (24 % more entries there).
 //! 2. **Normalisation** (Sinkhorn's alternating scaling): every column sums to
 //!    `A(cos_t)·cos_t·ω_t`, what the lobe reflects of the light arriving from t (A: its
@@ -237,9 +237,9 @@ fn face_lobe_with(
 /// (every quadrature column's source is a sphere vertex), entry (v, column from u) is kept
 /// exactly when (u, column from v) is: each column's truncation keeps only its own largest
 /// values, so a row near the horizon could be reached by a single column, whose other rows
-/// then kept the normalisation from ever meeting that row's target (rows 1–60 % off after
-/// 1000 iterations on 2 % of cornell-suzanne's faces). The added entry is the same number
-/// (M₀ is symmetric: `f(v, u)·cos_v·ΔΩ_v·cos_u·ΔΩ_u`).
+/// then kept the normalisation from ever meeting that row's target (rows 0.2–61 % off after
+/// 1000 iterations on 144 of cornell-suzanne's 3,883 glossy faces). The added entry is the
+/// same number (M₀ is symmetric: `f(v, u)·cos_v·ΔΩ_v·cos_u·ΔΩ_u`).
 fn symmetrise(cols: &mut [Column], vertices: usize) {
     let mut by_source = vec![u32::MAX; vertices];
     for (ci, c) in cols.iter().enumerate() {
