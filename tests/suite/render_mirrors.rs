@@ -51,6 +51,13 @@ fn frames(ctx: &GpuContext, lf: &LightField, cam: &CameraView) -> (FrameData, Fr
     (on, off)
 }
 
+/// A shared scene (path under ../shared) and its light field at [`small_params`], sky black.
+fn shared_bake(rel: &str) -> (Scene, LightField) {
+    let scene = vlf_core::scene::load(&shared_dir().join(rel)).unwrap();
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(Vec3::ZERO)).unwrap();
+    (scene, lf)
+}
+
 fn rgb(p: [f32; 4]) -> Vec3 {
     Vec4::from(p).truncate()
 }
@@ -235,9 +242,7 @@ fn parallel_mirrors_show_the_geometric_series_up_to_the_depth_bound() {
 #[test]
 fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
     let Some(ctx) = gpu() else { return };
-    let path = shared_dir().join("scenes/cornell-box-mirror/cornell-mirror.gltf");
-    let scene = vlf_core::scene::load(&path).unwrap();
-    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(Vec3::ZERO)).unwrap();
+    let (scene, lf) = shared_bake("scenes/cornell-box-mirror/cornell-mirror.gltf");
     let bvh = mirror_trace::build_bvh(&lf);
     let offsets = lf.shading.texture_offsets();
     let gltf = CameraView::from_gltf(&lf.cameras[0], &lf.to_vlf);
@@ -294,9 +299,7 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
 #[test]
 fn window_draws_mirror_pixels_by_stencil_like_stills() {
     let Some(ctx) = gpu() else { return };
-    let path = shared_dir().join("scenes/cornell-box-mirror/cornell-mirror.gltf");
-    let scene = vlf_core::scene::load(&path).unwrap();
-    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(Vec3::ZERO)).unwrap();
+    let (_, lf) = shared_bake("scenes/cornell-box-mirror/cornell-mirror.gltf");
     let cam = CameraView::from_gltf(&lf.cameras[0], &lf.to_vlf);
     // Split by stencil where the device has the format (lavapipe has): plain diffuse pixels
     // without mirror code, mirror pixels with it.
@@ -407,9 +410,7 @@ fn glossy_plane_under_uniform_sky_reads_directional_albedo_times_sky() {
 #[test]
 fn glossy_pixels_match_cpu_specification_on_cornell_suzanne() {
     let Some(ctx) = gpu() else { return };
-    let path = shared_dir().join("scenes/cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf");
-    let scene = vlf_core::scene::load(&path).unwrap();
-    let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(Vec3::ZERO)).unwrap();
+    let (scene, lf) = shared_bake("scenes/cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf");
     let bvh = mirror_trace::build_bvh(&lf);
     let offsets = lf.shading.texture_offsets();
     let cam = world_camera(

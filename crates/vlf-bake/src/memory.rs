@@ -489,19 +489,23 @@ pub fn plan_and_prepare(
             }
             .into());
         }
+        // What the fitted plan needs, as the warnings below say it.
+        let needs = |plan: &MemoryPlan| {
+            let gpu = if plan.device_bytes > 0 {
+                format!(" and {} of GPU buffers", human(plan.device_bytes))
+            } else {
+                String::new()
+            };
+            format!("{} of host memory{gpu}", human(plan.host_bytes))
+        };
         if let Some((materials, why, glossy_bytes, glossy_jobs)) = &as_mirrors {
             prep.warnings.push(format!(
-                "glossy lobes modelled as mirrors (materials: {}) to fit the memory budget: as directional tiles the bake needs {} ({} of it the reflect jobs): {}; now it needs {} of host memory{} (raise --max-memory, or lower --directions, to keep the lobes)",
+                "glossy lobes modelled as mirrors (materials: {}) to fit the memory budget: as directional tiles the bake needs {} ({} of it the reflect jobs): {}; now it needs {} (raise --max-memory, or lower --directions, to keep the lobes)",
                 materials.join(", "),
                 human(*glossy_bytes),
                 human(*glossy_jobs),
                 why.join("; "),
-                human(plan.host_bytes),
-                if plan.device_bytes > 0 {
-                    format!(" and {} of GPU buffers", human(plan.device_bytes))
-                } else {
-                    String::new()
-                }
+                needs(&plan),
             ));
         }
         if params.resolution != requested.resolution {
@@ -514,18 +518,13 @@ pub fn plan_and_prepare(
                 "raise --max-memory to keep the resolution"
             };
             prep.warnings.push(format!(
-                "--resolution lowered from {} to {} (tile {}) to fit the memory budget: at {}, {}; now the bake needs {} of host memory{} ({hint})",
+                "--resolution lowered from {} to {} (tile {}) to fit the memory budget: at {}, {}; now the bake needs {} ({hint})",
                 requested.resolution,
                 params.resolution,
                 params.tile,
                 requested.resolution,
                 why.join("; "),
-                human(plan.host_bytes),
-                if plan.device_bytes > 0 {
-                    format!(" and {} of GPU buffers", human(plan.device_bytes))
-                } else {
-                    String::new()
-                }
+                needs(&plan),
             ));
         }
         log::info!("{}: {plan}", scene_path.display());
