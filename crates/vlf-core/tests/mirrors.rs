@@ -395,3 +395,35 @@ fn sub_cell_mirrors_reflect_all_they_receive() {
         );
     }
 }
+
+/// The same sub-cell mirrors under a sun instead of the sky balance too. A sun's light is not
+/// renormalised over the directions that reach a texel, but the sun's reflect jobs reach a
+/// sub-cell face's tiles as rarely as the quadrature's do, so the unresolved share of it must
+/// leave diffusely as well (taking it from the sky's light only lost ~100 % here).
+#[test]
+fn sub_cell_mirrors_under_a_sun_keep_what_they_receive() {
+    let p = |iterations| BakeParams {
+        sky: Vec3::ZERO,
+        ..params(126, 32, iterations)
+    };
+    for side in [0.04f32, 0.65] {
+        let mut scene = mirror_cloud(4, side);
+        scene.suns.push(vlf_core::scene::Sun {
+            name: None,
+            direction: Vec3::new(0.3, -1.0, -0.4).normalize(),
+            irradiance: Vec3::splat(2.0),
+        });
+        let (_, _, out) = bake(&scene, &p(Iterations::Fixed(1)));
+        let e = &out.energy;
+        eprintln!(
+            "side {side} under a sun: first iteration {:.4}",
+            e.unshot / e.injected
+        );
+        assert!(e.injected > 0.0, "{e:?}");
+        assert!(
+            e.relative_imbalance().abs() < 0.05,
+            "side {side}: the first iteration keeps {:.3} of what it received: {e:?}",
+            e.unshot / e.injected
+        );
+    }
+}
