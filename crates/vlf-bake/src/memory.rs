@@ -48,7 +48,7 @@
 //! lobe is walked but not normalised, nothing is kept), on both paths, and later made at
 //! exactly that length; while they are made, the lobe of one glossy face at a time is their
 //! working memory (`LOBE_BYTES_PER_JOB` per job of the face with the most). A glossy lobe's
-//! jobs grow with its faces × the directions (~20 per incoming direction and side, against 3
+//! jobs grow with its faces × the directions (~25 per incoming direction and side, against 3
 //! for a mirror), not with the resolution: when the plan does not fit, the glossy lobes are
 //! first modelled as mirrors (a warning; `--json`'s `materials` say `mirror`), and only then
 //! is `--resolution` lowered.

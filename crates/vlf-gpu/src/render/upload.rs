@@ -28,7 +28,8 @@
 //!   6: base-colour texture, emissive texture, 0, 0 · 7: mirror reflectance (rgb,
 //!   [`specular_reflectance`]), GGX α of the metal lobe (`f32` bits). Pass 5 reads texels 0–4
 //!   of every face, 5 only for emitters, 6 only for textured faces ([`FLAG_DIFFUSE`] and the
-//!   other flags) and 7 only for mirrors along a traced chain ([`super::mirror_trace`]).
+//!   other flags) and 7 only for non-diffuse faces: the reflectance for the visible one and
+//!   for mirrors along a traced chain, α for the visible one ([`super::mirror_trace`]).
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
