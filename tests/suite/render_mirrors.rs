@@ -41,6 +41,14 @@ fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
     b.quad(q, m);
 }
 
+/// A mirror of reflectance `rho` (material 0, roughness 0) facing up over [-1, 1]² at y = 0.
+fn mirror_plane(rho: Vec3, name: &str) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.mirror("mirror", rho);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    b.build(name)
+}
+
 /// One frame with mirror tracing on and one with it off.
 fn frames(ctx: &GpuContext, lf: &LightField, cam: &CameraView) -> (FrameData, FrameData) {
     let mut r = Renderer::new(ctx, lf).unwrap();
@@ -74,10 +82,7 @@ fn world_camera(scene: &Scene, eye: Vec3, target: Vec3, fov_deg: f32) -> CameraV
 fn mirror_under_uniform_sky_reads_reflectance_times_sky_exactly() {
     let Some(ctx) = gpu() else { return };
     let (rho, sky) = (Vec3::new(0.9, 0.6, 0.3), Vec3::new(1.0, 2.0, 3.0));
-    let mut b = SceneBuilder::new();
-    let m = b.mirror("mirror", rho);
-    hquad(&mut b, 0.0, 1.0, true, m);
-    let scene = b.build("mirror under sky");
+    let scene = mirror_plane(rho, "mirror under sky");
     let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(sky)).unwrap();
     let cam = world_camera(&scene, Vec3::new(0.3, 1.5, 0.8), Vec3::ZERO, 60.0);
     let (on, off) = frames(ctx, &lf, &cam);
@@ -106,11 +111,8 @@ fn textured_mirror_reads_reflectance_times_texture_times_sky() {
     use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
     let Some(ctx) = gpu() else { return };
     let (rho, sky) = (Vec3::new(0.9, 0.6, 0.3), Vec3::new(1.0, 2.0, 3.0));
-    let mut b = SceneBuilder::new();
-    let m = b.mirror("mirror", rho);
-    hquad(&mut b, 0.0, 1.0, true, m);
-    let mut scene = b.build("textured mirror under sky");
-    scene.materials[m as usize].base_color_texture = Some(TexRef {
+    let mut scene = mirror_plane(rho, "textured mirror under sky");
+    scene.materials[0].base_color_texture = Some(TexRef {
         index: 0,
         texcoord: 0,
     });
@@ -346,11 +348,8 @@ fn glossy_plane_under_uniform_sky_reads_directional_albedo_times_sky() {
     let Some(ctx) = gpu() else { return };
     let sky = Vec3::new(1.0, 0.5, 0.25);
     for alpha in [0.05f32, 0.2, 0.5] {
-        let mut b = SceneBuilder::new();
-        let m = b.mirror("metal", Vec3::ONE);
-        hquad(&mut b, 0.0, 1.0, true, m);
-        let mut scene = b.build("glossy plane under sky");
-        scene.materials[m as usize].roughness = alpha.sqrt();
+        let mut scene = mirror_plane(Vec3::ONE, "glossy plane under sky");
+        scene.materials[0].roughness = alpha.sqrt();
         let lf = vlf_core::pipeline::bake_cpu(&scene, &small_params(sky)).unwrap();
         let stored = lf.shading.materials[0].specular_alpha;
         assert!(
