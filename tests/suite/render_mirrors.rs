@@ -66,6 +66,52 @@ fn shared_bake(rel: &str) -> (Scene, LightField) {
     (scene, lf)
 }
 
+/// Every non-diffuse pixel of the traced frame `on` against the CPU specification of pass 5's
+/// traced branch (sample 0): its face, the specification's traced part, and the pixel's
+/// relative difference from `surface + traced + tiles share × (tracing-off pixel − surface)`.
+/// Pixels without a specular face must equal the tracing-off frame `off`.
+fn against_specification(
+    lf: &LightField,
+    bvh: &vlf_core::pathtrace::Bvh,
+    cam: &CameraView,
+    on: &FrameData,
+    off: &FrameData,
+) -> Vec<(u32, mirror_trace::TracedSpecular, f32)> {
+    let offsets = lf.shading.texture_offsets();
+    let mut out = Vec::new();
+    for i in 0..(W * H) as usize {
+        let face = on.face_id[i];
+        if face == NO_FACE || lf.faces[face as usize].kind == FACE_DIFFUSE {
+            // No specular face seen: tracing changes nothing.
+            assert_eq!(on.radiance[i], off.radiance[i], "pixel {i}");
+            continue;
+        }
+        let p = Vec4::from(on.position[i]).truncate();
+        let side = visible_side(&lf.faces[face as usize], cam.position, p);
+        let uv = on.uv[i].into();
+        let t = mirror_trace::traced_specular(
+            lf,
+            bvh,
+            &offsets,
+            cam.position,
+            face,
+            p,
+            uv,
+            i as u32,
+            0,
+        );
+        let surface = surface_radiance(lf, &offsets, face, side, p, uv);
+        let want = surface + t.radiance + t.tiles * (rgb(off.radiance[i]) - surface);
+        let got = rgb(on.radiance[i]);
+        out.push((
+            face,
+            t,
+            (got - want).abs().max_element() / want.max_element().max(1e-3),
+        ));
+    }
+    out
+}
+
 fn rgb(p: [f32; 4]) -> Vec3 {
     Vec4::from(p).truncate()
 }
@@ -246,7 +292,6 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
     let Some(ctx) = gpu() else { return };
     let (scene, lf) = shared_bake("scenes/cornell-box-mirror/cornell-mirror.gltf");
     let bvh = mirror_trace::build_bvh(&lf);
-    let offsets = lf.shading.texture_offsets();
     let gltf = CameraView::from_gltf(&lf.cameras[0], &lf.to_vlf);
     let inside = world_camera(
         &scene,
@@ -258,35 +303,12 @@ fn traced_mirror_pixels_match_cpu_specification_on_the_mirror_cornell_box() {
     let mut off_by = Vec::new();
     for cam in [gltf, inside] {
         let (on, off) = frames(ctx, &lf, &cam);
-        for i in 0..(W * H) as usize {
-            let face = on.face_id[i];
-            if face == NO_FACE || lf.faces[face as usize].kind == FACE_DIFFUSE {
-                // No mirror seen: tracing changes nothing.
-                assert_eq!(on.radiance[i], off.radiance[i], "pixel {i}");
-                continue;
-            }
-            let p = Vec4::from(on.position[i]).truncate();
-            let bf = &lf.faces[face as usize];
-            let side = visible_side(bf, cam.position, p);
-            let uv = on.uv[i].into();
-            let traced = mirror_trace::traced_specular(
-                &lf,
-                &bvh,
-                &offsets,
-                cam.position,
-                face,
-                p,
-                uv,
-                i as u32,
-                0,
-            );
+        for (_, traced, d) in against_specification(&lf, &bvh, &cam, &on, &off) {
             assert_eq!(
                 traced.tiles, 0.0,
                 "a convex mirror block: every chain ends on a diffuse face or the sky"
             );
-            let want = surface_radiance(&lf, &offsets, face, side, p, uv) + traced.radiance;
-            let got = rgb(on.radiance[i]);
-            off_by.push((got - want).abs().max_element() / want.max_element().max(1e-3));
+            off_by.push(d);
             checked += 1;
         }
     }
@@ -411,7 +433,6 @@ fn glossy_pixels_match_cpu_specification_on_cornell_suzanne() {
     let Some(ctx) = gpu() else { return };
     let (scene, lf) = shared_bake("scenes/cornell-suzanne/cornellBox-2.80-Eevee-gltf.gltf");
     let bvh = mirror_trace::build_bvh(&lf);
-    let offsets = lf.shading.texture_offsets();
     let cam = world_camera(
         &scene,
         Vec3::new(0.9, 0.9, 0.3),
@@ -420,33 +441,10 @@ fn glossy_pixels_match_cpu_specification_on_cornell_suzanne() {
     );
     let (on, off) = frames(ctx, &lf, &cam);
     let (mut checked, mut partial, mut off_by) = (0, 0, Vec::new());
-    for i in 0..(W * H) as usize {
-        let face = on.face_id[i];
-        if face == NO_FACE || lf.faces[face as usize].kind == FACE_DIFFUSE {
-            assert_eq!(on.radiance[i], off.radiance[i], "pixel {i}");
-            continue;
-        }
+    for (face, t, d) in against_specification(&lf, &bvh, &cam, &on, &off) {
         let m = &lf.shading.materials[lf.faces[face as usize].material as usize];
         assert!(m.specular_alpha > 0.0, "Suzanne's lobe is glossy");
-        let p = Vec4::from(on.position[i]).truncate();
-        let bf = &lf.faces[face as usize];
-        let side = visible_side(bf, cam.position, p);
-        let uv = on.uv[i].into();
-        let t = mirror_trace::traced_specular(
-            &lf,
-            &bvh,
-            &offsets,
-            cam.position,
-            face,
-            p,
-            uv,
-            i as u32,
-            0,
-        );
-        let surface = surface_radiance(&lf, &offsets, face, side, p, uv);
-        let want = surface + t.radiance + t.tiles * (rgb(off.radiance[i]) - surface);
-        let got = rgb(on.radiance[i]);
-        off_by.push((got - want).abs().max_element() / want.max_element().max(1e-3));
+        off_by.push(d);
         partial += usize::from(t.tiles > 0.0 && t.tiles < 1.0);
         checked += 1;
     }
