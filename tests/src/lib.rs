@@ -52,20 +52,13 @@ pub fn window_frame(
     height: u32,
 ) -> Vec<[f32; 4]> {
     let format = wgpu::TextureFormat::Rgba32Float;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("Test::view_target"),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
+    let target = vlf_gpu::render::targets::readback_target(
+        &ctx.device,
+        "Test::view_target",
+        width,
+        height,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    );
     let view = target.create_view(&Default::default());
     let mut encoder = ctx
         .device

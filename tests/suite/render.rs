@@ -381,20 +381,8 @@ fn window_path_shows_the_pass_outputs() {
     let mut r = Renderer::new(ctx, lf).unwrap();
     let data = r.render_frame_data(ctx, &cam, W, H).unwrap();
     let format = wgpu::TextureFormat::Rgba32Float;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("Test::view_target"),
-        size: wgpu::Extent3d {
-            width: W,
-            height: H,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
+    let target =
+        vlf_gpu::render::targets::readback_target(&ctx.device, "Test::view_target", W, H, format);
     let view = target.create_view(&Default::default());
     for pass in [Pass::FinalRadiance, Pass::Position] {
         r.set_debug_view(pass);

@@ -593,20 +593,8 @@ impl Renderer {
             Vec2::splat(0.5),
             &display,
         );
-        let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("Display::still_target"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
+        let texture =
+            targets::readback_target(&ctx.device, "Display::still_target", width, height, format);
         let view = texture.create_view(&Default::default());
         let mut encoder = ctx
             .device

@@ -132,6 +132,31 @@ impl Targets {
     }
 }
 
+/// A `width × height` texture of `format` to render into and read back with [`read_texture`]
+/// (render attachment, copy source).
+pub fn readback_target(
+    device: &wgpu::Device,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    })
+}
+
 /// Reads a whole 2D texture of `texel_bytes`-byte texels back as `T`s, row 0 first, blocking.
 pub fn read_texture<T: bytemuck::Pod>(
     device: &wgpu::Device,
