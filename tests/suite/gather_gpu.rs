@@ -55,6 +55,7 @@ impl Field {
         Converged {
             prep: &self.prep,
             irradiance: &self.irradiance,
+            first_bounce: None,
             tiles: self.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
             directions: &self.set,
             sky: self.sky,
@@ -75,6 +76,8 @@ fn gp() -> GatherParams {
         light_samples: 16,
         direct_rays: 9,
         indirect_rays: 16,
+        sampling: vlf_core::lightfield::Sampling::FIXED,
+        denoise: false,
     }
 }
 
@@ -94,6 +97,10 @@ fn default_counts(scene: &Scene) -> GatherParams {
     );
     gp.texel_scale *= 4.0;
     gp.indirect_texel_scale *= 4.0;
+    // The GPU gather implements the fixed-count estimator (guided and adaptive sampling and
+    // the denoiser run on the CPU).
+    gp.sampling = vlf_core::lightfield::Sampling::FIXED;
+    gp.denoise = false;
     gp
 }
 

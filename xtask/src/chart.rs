@@ -79,6 +79,15 @@ const SCENES: &[ChartScene] = &[
         grid: "quick",
         high: false,
     },
+    // Sky (1, 1, 1) only, through two windows; its glTF camera 0.
+    ChartScene {
+        name: "window-room",
+        file: "window-room/window-room.glb",
+        shared_ref: "window-room-ref.exr",
+        view: &["--sky", "1,1,1"],
+        grid: "quick",
+        high: false,
+    },
 ];
 
 pub fn chart(root: &Path, args: &[String]) -> Result<()> {

@@ -107,6 +107,35 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
         if let Some(v) = a.gather_rays {
             g.indirect_rays = v;
         }
+        if let Some(mode) = a.gather_sampling {
+            use crate::cli::GatherSampling;
+            let preset = quality(a).gather().sampling;
+            g.sampling = match mode {
+                GatherSampling::Fixed => vlf_core::lightfield::Sampling::FIXED,
+                GatherSampling::Guided => vlf_core::lightfield::Sampling {
+                    guided: true,
+                    ..vlf_core::lightfield::Sampling::FIXED
+                },
+                GatherSampling::Adaptive => vlf_core::lightfield::Sampling {
+                    guided: true,
+                    target_error: if preset.target_error > 0.0 {
+                        preset.target_error
+                    } else {
+                        0.05
+                    },
+                    max_rounds: preset.max_rounds.max(4),
+                },
+            };
+        }
+        if let Some(v) = a.gather_target {
+            g.sampling.target_error = v;
+        }
+        if let Some(v) = a.gather_max_rounds {
+            g.sampling.max_rounds = v;
+        }
+        if let Some(v) = a.denoise {
+            g.denoise = v == OnOff::On;
+        }
     }
 }
 
@@ -195,7 +224,16 @@ fn finish(
     threads: usize,
 ) -> anyhow::Result<vlf_core::pipeline::Finished> {
     use vlf_core::pipeline;
-    let (Compute::Gpu(ctx, _), Some(gp)) = (compute, params.final_gather) else {
+    // The GPU gather samples fixed counts only: guided or adaptive sampling gathers on the CPU.
+    let gpu_gather = params
+        .final_gather
+        .filter(|g| g.sampling.is_fixed() && !g.denoise);
+    if let (Compute::Gpu(..), Some(_), None) = (compute, params.final_gather, gpu_gather) {
+        log::info!(
+            "final gather on the CPU: the GPU gather has no guided or adaptive sampling or denoiser"
+        );
+    }
+    let (Compute::Gpu(ctx, _), Some(gp)) = (compute, gpu_gather) else {
         return Ok(pipeline::finish(
             scene,
             prep,

@@ -52,6 +52,14 @@ pub enum QualityArg {
     High,
 }
 
+/// `--gather-sampling`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GatherSampling {
+    Fixed,
+    Guided,
+    Adaptive,
+}
+
 /// `--final-gather on|off`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OnOff {
@@ -142,6 +150,22 @@ pub struct BakeArgs {
     /// draft 64, auto 256, high 1024).
     #[arg(long, value_name = "R")]
     pub gather_rays: Option<u32>,
+    /// How the final gather samples direct light (default from --quality, docs/QUALITY.md):
+    /// `fixed` one round of cosine rays and light samples per texel; `guided` three quarters
+    /// of the rays drawn where the indirect grid's rays saw the sky; `adaptive` guided, and
+    /// more rounds where a texel's estimated error is above --gather-target (docs/GATHER.md).
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub gather_sampling: Option<GatherSampling>,
+    /// Relative standard error that adaptive sampling stops at (default from --quality).
+    #[arg(long, value_name = "E")]
+    pub gather_target: Option<f32>,
+    /// Most rounds of samples per texel under adaptive sampling (default from --quality).
+    #[arg(long, value_name = "N")]
+    pub gather_max_rounds: Option<u32>,
+    /// The edge-aware atlas denoiser after the final gather (docs/GATHER.md); the file records
+    /// whether it ran.
+    #[arg(long, value_enum)]
+    pub denoise: Option<OnOff>,
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,

@@ -59,6 +59,7 @@ pub fn converged<'a>(
     Converged {
         prep,
         irradiance: &propagated.irradiance,
+        first_bounce: propagated.first_bounce.as_deref(),
         tiles: propagated.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
         directions,
         sky: params.sky,
@@ -101,6 +102,7 @@ pub fn finish_gathered(
     // albedo and emission per pixel).
     let gathered = Propagated {
         irradiance: g.irradiance,
+        first_bounce: None,
         tiles,
         ..propagated
     };

@@ -184,6 +184,8 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
             light_samples: 64,
             direct_rays: 16,
             indirect_rays: 256,
+            sampling: vlf_core::lightfield::Sampling::FIXED,
+            denoise: false,
         }),
         ..BakeParams::paper()
     };
@@ -403,6 +405,35 @@ fn round_trip_is_bit_exact_for_both_encodings() {
         DEFAULT_ENCODING.name()
     );
     assert_eq!(DEFAULT_ENCODING, RadianceEncoding::RgbF16);
+}
+
+#[test]
+fn the_gathers_sampling_and_denoiser_round_trip_in_an_optional_section() {
+    let dir = scratch("gather-sampling");
+    let mut lf = small();
+    let g = lf.params.final_gather.as_mut().unwrap();
+    g.sampling = vlf_core::lightfield::Sampling {
+        guided: true,
+        target_error: 0.05,
+        max_rounds: 8,
+    };
+    g.denoise = true;
+    let path = dir.join("sampled.vlf");
+    format::write_atomic(&path, &lf).unwrap();
+    let back = format::read(&path).unwrap();
+    assert_eq!(back.params, lf.params);
+    let file = fs::read(&path).unwrap();
+    let h = header_of(&file);
+    let s = h
+        .sections
+        .iter()
+        .find(|s| s.name == "gather_sampling")
+        .expect("the section is written");
+    assert!(!s.required, "older readers skip it");
+    // A fixed-count gather writes no such section: its files are as before.
+    let plain = small();
+    let h = header_of(&bytes_of(&plain, DEFAULT_ENCODING));
+    assert!(h.sections.iter().all(|s| s.name != "gather_sampling"));
 }
 
 #[test]

@@ -185,6 +185,8 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut R
             light_samples: 16,
             direct_rays: 4,
             indirect_rays: 64,
+            sampling: vlf_core::lightfield::Sampling::FIXED,
+            denoise: false,
         }),
         ..BakeParams::paper()
     };

@@ -38,6 +38,7 @@ fn bake_and_gather_with_field(
     let field = Converged {
         prep: &prep,
         irradiance: &prop.irradiance,
+        first_bounce: prop.first_bounce.as_deref(),
         tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
         directions: &set,
         sky,
@@ -52,6 +53,7 @@ fn bake_and_gather_with_field(
             atlas: prep.clone(),
             irradiance: prop.irradiance.clone(),
             stats,
+            variance: None,
         },
     )
 }
@@ -63,6 +65,8 @@ fn gp(texel: f32, indirect: f32, light: u32, rays: u32) -> GatherParams {
         light_samples: light,
         direct_rays: light.div_ceil(4),
         indirect_rays: rays,
+        sampling: vlf_core::lightfield::Sampling::FIXED,
+        denoise: false,
     }
 }
 
@@ -413,6 +417,8 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
         light_samples: 1024,
         direct_rays: 256,
         indirect_rays: 4,
+        sampling: vlf_core::lightfield::Sampling::FIXED,
+        denoise: false,
     };
     let g = bake_and_gather(&scene, Vec3::ZERO, &p, 0);
     let ceiling = face_with_normal(&scene, Vec3::NEG_Y);

@@ -683,6 +683,7 @@ fn gather(
     let field = Converged {
         prep,
         irradiance: &out.irradiance,
+        first_bounce: out.first_bounce.as_deref(),
         tiles: out.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
         directions: set,
         sky: p.sky,
@@ -700,6 +701,8 @@ fn gather_params(light_samples: u32, indirect_rays: u32) -> GatherParams {
         light_samples,
         direct_rays: light_samples.div_ceil(4),
         indirect_rays,
+        sampling: vlf_core::lightfield::Sampling::FIXED,
+        denoise: false,
     }
 }
 

@@ -57,12 +57,23 @@ impl Quality {
                 Quality::Auto => (0.5, 1.0, 64, 16, 256),
                 Quality::High => (0.25, 0.5, 256, 64, 1024),
             };
+        let (target_error, max_rounds) = match self {
+            Quality::Draft => (0.0, 1),
+            Quality::Auto => (0.05, 8),
+            Quality::High => (0.02, 16),
+        };
         GatherParams {
             texel_scale,
             indirect_texel_scale,
             light_samples,
             direct_rays,
             indirect_rays,
+            sampling: crate::lightfield::Sampling {
+                guided: true,
+                target_error,
+                max_rounds,
+            },
+            denoise: false,
         }
     }
 }

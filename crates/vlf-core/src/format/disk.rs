@@ -163,6 +163,44 @@ pub const KIND_UVS: u32 = 6;
 pub const KIND_TEXTURE: u32 = 7;
 /// Texture texels: IEEE binary16 r, g, b (6 bytes), whatever the radiance encoding.
 pub const KIND_TEXELS: u32 = 8;
+/// How the final gather sampled and filtered the atlas ([`FileGatherSampling`], one element;
+/// optional: written when the gather sampled adaptively, guided or denoised).
+pub const KIND_GATHER_SAMPLING: u32 = 9;
+
+/// Section `gather_sampling`: the parts of [`GatherParams`] the header's [`FileGather`] has
+/// no field for (added without a new version: an optional section, which older readers skip).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FileGatherSampling {
+    /// 1: the rays were guided ([`crate::lightfield::Sampling::guided`]).
+    pub guided: u32,
+    pub target_error: f32,
+    pub max_rounds: u32,
+    /// 1: the atlas was denoised ([`GatherParams::denoise`]).
+    pub denoise: u32,
+}
+
+impl FileGatherSampling {
+    /// The record of `g`, or `None` when it sampled as before the section existed.
+    pub fn of(g: &GatherParams) -> Option<Self> {
+        (!g.sampling.is_fixed() || g.denoise).then_some(FileGatherSampling {
+            guided: u32::from(g.sampling.guided),
+            target_error: g.sampling.target_error,
+            max_rounds: g.sampling.max_rounds,
+            denoise: u32::from(g.denoise),
+        })
+    }
+
+    /// Writes the record into `g`.
+    pub fn apply(&self, g: &mut GatherParams) {
+        g.sampling = crate::lightfield::Sampling {
+            guided: self.guided != 0,
+            target_error: self.target_error,
+            max_rounds: self.max_rounds,
+        };
+        g.denoise = self.denoise != 0;
+    }
+}
 
 /// Section names.
 pub const SECTION_TRIANGLES: &str = "triangles";
@@ -172,6 +210,7 @@ pub const SECTION_MATERIALS: &str = "materials";
 pub const SECTION_UVS: &str = "uvs";
 pub const SECTION_TEXTURES: &str = "textures";
 pub const SECTION_TEXELS: &str = "texels";
+pub const SECTION_GATHER_SAMPLING: &str = "gather_sampling";
 /// Optional pair: both present (scenes with mirror/mixed faces) or both absent.
 pub const SECTION_TILE_INDEX: &str = "tile_index";
 pub const SECTION_TILE_RADIANCE: &str = "tile_radiance";
@@ -364,6 +403,9 @@ impl From<&FileParams> for BakeParams {
                 light_samples: g.light_samples,
                 direct_rays: g.direct_rays,
                 indirect_rays: g.indirect_rays,
+                // The section `gather_sampling` holds these (`FileGatherSampling`).
+                sampling: crate::lightfield::Sampling::FIXED,
+                denoise: false,
             }),
         }
     }

@@ -167,6 +167,10 @@ fn known_section(name: &str, enc: RadianceEncoding) -> Option<(u32, usize)> {
         disk::SECTION_UVS => Some((disk::KIND_UVS, size_of::<FileUvs>())),
         disk::SECTION_TEXTURES => Some((disk::KIND_TEXTURE, size_of::<FileTexture>())),
         disk::SECTION_TEXELS => Some((disk::KIND_TEXELS, disk::TEXEL_BYTES)),
+        disk::SECTION_GATHER_SAMPLING => Some((
+            disk::KIND_GATHER_SAMPLING,
+            size_of::<disk::FileGatherSampling>(),
+        )),
         _ => None,
     }
 }
@@ -376,7 +380,31 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
             ),
         )));
     }
-    let params = BakeParams::from(&h.params);
+    let mut params = BakeParams::from(&h.params);
+    if let Some(s) = h
+        .sections
+        .iter()
+        .find(|s| s.name == disk::SECTION_GATHER_SAMPLING)
+    {
+        let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
+        match (rec.as_slice(), params.final_gather.as_mut()) {
+            ([r], Some(g)) => r.apply(g),
+            _ => {
+                return Err(content((
+                    "gather sampling".into(),
+                    format!(
+                        "{} records for {} final gather",
+                        rec.len(),
+                        if params.final_gather.is_some() {
+                            "a"
+                        } else {
+                            "no"
+                        }
+                    ),
+                )));
+            }
+        }
+    }
     let to_vlf = (&h.transform).into();
     let cameras: Vec<_> = h.cameras.iter().map(Into::into).collect();
     validate_header_content(&params, &to_vlf, &cameras).map_err(content)?;

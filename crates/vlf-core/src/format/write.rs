@@ -8,9 +8,9 @@ use bytemuck::Pod;
 
 use super::FormatError;
 use super::disk::{
-    self, FileCamera, FileDirections, FileFace, FileHeader, FileParams, FileSceneSummary,
-    FileStats, FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN, Preamble,
-    SECTION_ALIGN, SectionEntry, VERSION,
+    self, FileCamera, FileDirections, FileFace, FileGatherSampling, FileHeader, FileParams,
+    FileSceneSummary, FileStats, FileTransform, FileTriangle, MAGIC, MAX_HEADER_LEN, PREAMBLE_LEN,
+    Preamble, SECTION_ALIGN, SectionEntry, VERSION,
 };
 use super::validate::{validate_geometry, validate_header_content, validate_shading};
 use super::{shading, tiles};
@@ -195,6 +195,26 @@ pub(super) fn encode<'a>(
         ));
         bodies.push(Cow::Owned(idx_bytes));
         bodies.push(vals);
+    }
+    if let Some(rec) = lf
+        .params
+        .final_gather
+        .as_ref()
+        .and_then(FileGatherSampling::of)
+    {
+        let bytes = pod_section(vec![rec]);
+        sections.push(SectionEntry {
+            required: false,
+            ..entry(
+                disk::SECTION_GATHER_SAMPLING,
+                disk::KIND_GATHER_SAMPLING,
+                1,
+                size_of::<FileGatherSampling>(),
+                &bytes,
+                hash::section_checksum(&bytes),
+            )
+        });
+        bodies.push(Cow::Owned(bytes));
     }
     let mut header = FileHeader {
         params: FileParams::from(&lf.params),

@@ -27,6 +27,9 @@ pub struct Field<'a> {
     /// covered texels.
     pub irradiance: Vec<[f32; 4]>,
     pub tiles: Option<Tiles<'a>>,
+    /// Irradiance a read adds to the atlas': the final gather's direct light on its own atlas
+    /// (dilated), when the atlas holds the light after the first bounce only.
+    pub direct: Option<(&'a BakeScene, Vec<[f32; 4]>)>,
     /// Where the atlas' bilinear quads straddle a contact, and the BVH that tells which of their
     /// texels a point sees.
     pub contacts: Contacts<'a>,
@@ -60,6 +63,7 @@ impl<'a> Field<'a> {
             atlas,
             irradiance,
             tiles,
+            direct: None,
             contacts: Contacts::none(&ps.bvh, ps.scene, atlas),
         }
     }
@@ -108,7 +112,11 @@ impl<'a> Field<'a> {
                 .bilinear(s.uv)
                 .truncate();
         }
-        rho * std::f32::consts::FRAC_1_PI * self.irradiance_at(s)
+        let mut e = self.irradiance_at(s);
+        if let Some((atlas, direct)) = &self.direct {
+            e += chart_bilinear(&atlas.faces[s.face as usize], direct, s.side, s.vlf);
+        }
+        rho * std::f32::consts::FRAC_1_PI * e
     }
 
     /// The atlas' irradiance at `s`: bilinear over the four texels around it as the renderer

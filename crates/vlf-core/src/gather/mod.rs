@@ -16,6 +16,7 @@
 //! not depend on the thread count. This module is the specification of the GPU gather.
 
 pub mod field;
+pub mod guide;
 pub mod points;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -30,7 +31,8 @@ use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::scene::Scene;
 pub use field::Charts;
-use field::{Field, Tiles, chart_bilinear};
+use field::{Field, Quad, Tiles, chart_bilinear};
+use guide::{Cells, Guide};
 pub use points::{Openness, TexelPoints};
 
 /// The propagated light field the gather reads.
@@ -39,6 +41,9 @@ pub struct Converged<'a> {
     pub prep: &'a BakeScene,
     /// Its total irradiance per texel (rgb), as propagated (not dilated).
     pub irradiance: &'a [[f32; 4]],
+    /// The first iteration's irradiance alone, when the propagation kept it (guided sampling
+    /// then reads the field without it and adds its own direct light instead).
+    pub first_bounce: Option<&'a [[f32; 4]]>,
     /// Mirror tiles and their total outgoing radiance, if the scene has non-diffuse faces.
     pub tiles: Option<(&'a TileIndex, &'a [[f32; 4]])>,
     pub directions: &'a DirectionSet,
@@ -56,6 +61,9 @@ pub struct Gathered {
     /// their face or enclosed are filled from open neighbours.
     pub irradiance: Vec<[f32; 4]>,
     pub stats: GatherStats,
+    /// The estimated variance (luminance) of each stored texel's irradiance, when guided or
+    /// adaptive sampling ran (what the denoiser weighs differences by).
+    pub variance: Option<Vec<f32>>,
 }
 
 /// Bookkeeping of a gather (`vlf-bake bake --json`, `gather`). Powers are Σ E·area over texel
@@ -72,6 +80,9 @@ pub struct GatherStats {
     pub indirect_power: f64,
     /// The same sum over the propagation's atlas (what the light field alone would store).
     pub propagated_power: f64,
+    /// How the direct light was sampled, when guided or adaptive sampling ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampling: Option<SamplingStats>,
 }
 
 impl GatherStats {
@@ -90,6 +101,10 @@ const CHUNK: usize = 64;
 /// the GPU gather uses the same).
 pub const STREAM_INDIRECT: u32 = 1;
 pub const STREAM_DIRECT: u32 = 2;
+/// The guided second pass of the indirect grid.
+pub const STREAM_INDIRECT_GUIDED: u32 = 3;
+/// Where the indirect grid's texels see the sky (the direct estimator's guide).
+pub const STREAM_SKY_GUIDE: u32 = 4;
 pub const SEED: u32 = 0x6a7e_5eed;
 
 struct Gatherer<'a> {
@@ -132,109 +147,374 @@ impl Gatherer<'_> {
         Some(sum * (std::f32::consts::PI / points.len() as f32))
     }
 
+    /// The first pass of the guided indirect estimator: a quarter of the texel's `rays`
+    /// (cosine, stratified in G × G cells, one ray a cell at the default 256), the radiance
+    /// each cell's rays brought and the sky they saw.
+    fn indirect_first(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<FirstPass> {
+        let n_a = (rays / 4).max(1);
+        let mut rng = Rng::for_path(SEED, t as u32, STREAM_INDIRECT);
+        let mut points = Vec::with_capacity(n_a as usize);
+        let n = pts.sample(t, n_a, &mut rng, &mut points);
+        if points.is_empty() {
+            return None;
+        }
+        let strata = shuffled_strata(n_a, &mut rng);
+        let mut out = FirstPass {
+            rays: points.len() as u32,
+            radiance: Box::new([Vec3::ZERO; guide::CELLS]),
+            luminance: Cells::default(),
+        };
+        for (k, &p) in points.iter().enumerate() {
+            let u = strata.point(k, &mut rng);
+            let l = self.gather_ray(p, n, u);
+            out.radiance[guide::cell_of(u)] += l;
+            out.luminance.add(u, luminance(l));
+        }
+        Some(out)
+    }
+
+    /// Where texel `t` sees the sky: `rays` cosine rays (occlusion only), 1 in each cell a ray
+    /// left the scene through; `None` without an open point or a ray that left.
+    fn sky_cells(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<Cells> {
+        let mut rng = Rng::for_path(SEED, t as u32, STREAM_SKY_GUIDE);
+        let mut points = Vec::with_capacity(rays as usize);
+        let n = pts.sample(t, rays, &mut rng, &mut points);
+        let strata = shuffled_strata(rays, &mut rng);
+        let mut cells = Cells::default();
+        let mut any = false;
+        for (k, &p) in points.iter().enumerate() {
+            let u = strata.point(k, &mut rng);
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+            if !self
+                .ps
+                .bvh
+                .occluded(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY))
+            {
+                cells.add(u, 1.0);
+                any = true;
+            }
+        }
+        any.then_some(cells)
+    }
+
+    /// The radiance of the field seen from `p` (normal `n`) along square point `u`; a ray that
+    /// leaves the scene brings nothing (the sky is the direct part).
+    fn gather_ray(&self, p: Vec3, n: Vec3, u: Vec2) -> Vec3 {
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+        let hit = self
+            .ps
+            .bvh
+            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+        if hit.is_hit() {
+            self.field_radiance(dir, &hit)
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// The second pass of the guided indirect estimator for texel `t`: the rest of its `rays`,
+    /// a quarter cosine and three quarters drawn from `guide` (the first passes of its
+    /// neighbours, never its own, so the guide does not depend on the samples it weighs),
+    /// and every ray of both passes weighted by the balance heuristic.
+    fn indirect_second(
+        &self,
+        pts: &TexelPoints,
+        t: usize,
+        rays: u32,
+        first: &FirstPass,
+        guide: Option<&Guide>,
+    ) -> IndirectTexel {
+        let n_a = first.rays;
+        let n_b = rays.saturating_sub(n_a).max(1);
+        let mut rng = Rng::for_path(SEED, t as u32, STREAM_INDIRECT_GUIDED);
+        let mut points = Vec::with_capacity(n_b as usize);
+        let n = pts.sample(t, n_b, &mut rng, &mut points);
+        let n_u = if guide.is_some() {
+            (n_b / 4).max(1)
+        } else {
+            n_b
+        };
+        let n_g = n_b - n_u;
+        let total = (n_a + n_b) as f32;
+        // Σ_k n_k p_k(u) in the unit square: cosine rays have density 1.
+        let mix = |c: usize| (n_a + n_u) as f32 + guide.map_or(0.0, |g| n_g as f32 * g.density[c]);
+        let mut sum = Vec3::ZERO;
+        let mut moments = Moments::default();
+        for (c, l) in first.radiance.iter().enumerate() {
+            if first.luminance.w[c] > 0.0 || *l != Vec3::ZERO {
+                let v = *l * (std::f32::consts::PI / mix(c));
+                sum += v;
+                moments.add(luminance(v) * total);
+            }
+        }
+        // The first pass's rays that brought nothing count as zeros.
+        for _ in moments.n..n_a {
+            moments.add(0.0);
+        }
+        if !points.is_empty() {
+            let strata = shuffled_strata(n_u, &mut rng);
+            for k in 0..n_b as usize {
+                let p = points[k % points.len()];
+                let u = match guide {
+                    Some(g) if k >= n_u as usize => {
+                        let v = ((k - n_u as usize) as f32 + rng.next_f32()) / n_g as f32;
+                        g.sample(v, rng.next_2d())
+                    }
+                    _ => strata.point(k, &mut rng),
+                };
+                let l = self.gather_ray(p, n, u);
+                let v = l * (std::f32::consts::PI / mix(guide::cell_of(u)));
+                sum += v;
+                moments.add(luminance(v) * total);
+            }
+        }
+        // Without a second pass (no open point drawn) the first pass alone, renormalised.
+        let e = if points.is_empty() {
+            sum * (total / n_a as f32)
+        } else {
+            sum
+        };
+        IndirectTexel {
+            e,
+            variance: moments.variance_of_mean(),
+        }
+    }
+
     /// Direct irradiance of texel `t`: emitters by light samples and cosine rays combined with
     /// the power heuristic, suns by shadow rays, the sky by the cosine rays; `None` when the
     /// texel has no open point.
     fn direct(&self, pts: &TexelPoints, t: usize, gp: &GatherParams) -> Option<Vec3> {
+        self.direct_texel(pts, t, gp, None, 0.0).map(|d| d.e)
+    }
+
+    /// [`Gatherer::direct`] by rounds of `light_samples` + `direct_rays` samples, with three
+    /// quarters of the rays drawn from `guide` when there is one (`gp.sampling.guided`), until
+    /// the estimated standard error is below `gp.sampling.target_error` × (the estimate +
+    /// `floor`, the texel's indirect light) or `max_rounds` rounds ran.
+    fn direct_texel(
+        &self,
+        pts: &TexelPoints,
+        t: usize,
+        gp: &GatherParams,
+        guide: Option<&Guide>,
+        floor: f32,
+    ) -> Option<DirectTexel> {
         let lights = &self.ps.lights;
         let mut rng = Rng::for_path(SEED, t as u32, STREAM_DIRECT);
         let count = gp.light_samples.max(gp.direct_rays).max(1);
         let mut points = Vec::with_capacity(count as usize);
-        let n = pts.sample(t, count, &mut rng, &mut points);
-        if points.is_empty() {
-            return None;
-        }
         let has_emitters = !lights.emitters.is_empty();
         let (n_l, n_b) = if has_emitters {
             (gp.light_samples, gp.direct_rays)
         } else {
             (0, gp.direct_rays)
         };
+        let guide = guide.filter(|_| n_b >= 2);
+        // Cosine rays first, then the guided ones.
+        let n_u = if guide.is_some() {
+            (n_b / 4).max(1)
+        } else {
+            n_b
+        };
         let (fl, fb) = (n_l as f32, n_b as f32);
-        let mut sum = Vec3::ZERO;
-        // Light samples (stratified over the emitters' sample space, paired at random with
-        // the point strata).
-        let strata = shuffled_strata(n_l, &mut rng);
-        for k in 0..n_l as usize {
-            let p = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
-            let u = strata.point(k, &mut rng);
-            let (e, u) = lights.pick_emitter_remapped(u);
-            let tri = &self.ps.bvh.triangles[e.tri as usize];
-            let [a, b, c] = tri.corners();
-            let bary = sampling::triangle_barycentrics(u);
-            let x = a * (1.0 - bary.x - bary.y) + b * bary.x + c * bary.y;
-            let nl = (b - a).cross(c - a).normalize();
-            let to = x - p;
-            let d2 = to.length_squared();
-            let wi = to / d2.sqrt();
-            let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
-            if cos_r <= 0.0 || cos_l <= 0.0 {
-                continue;
+        let s = &gp.sampling;
+        let max_rounds = if s.target_error > 0.0 {
+            s.max_rounds.max(1)
+        } else {
+            1
+        };
+        let (mut total, mut rounds, mut rays) = (Vec3::ZERO, 0u32, 0u32);
+        let (mut m_l, mut m_b, mut m_s) =
+            (Moments::default(), Moments::default(), Moments::default());
+        while rounds < max_rounds {
+            points.clear();
+            let n = pts.sample(t, count, &mut rng, &mut points);
+            if points.is_empty() {
+                if rounds == 0 {
+                    return None;
+                }
+                break;
             }
-            let pdf_l = e.pdf / e.area * d2 / cos_l;
-            let pdf_b = cos_r * std::f32::consts::FRAC_1_PI;
-            let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
-            let origin = offset_ray_origin(p, n);
-            let target = offset_ray_origin(x, nl);
-            if w > 0.0
-                && !self
-                    .ps
-                    .bvh
-                    .occluded(&Ray::new(origin, target - origin, 1.0))
-            {
-                let le = self.ps.emission(e.tri, bary.x, bary.y);
-                sum += le * (w * cos_r / (pdf_l * fl));
-            }
-        }
-        // Cosine rays: the sky, and emitters weighted against the light samples.
-        let strata = shuffled_strata(n_b, &mut rng);
-        for k in 0..n_b as usize {
-            let p = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
-            let u = strata.point(k, &mut rng);
-            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-            let hit =
-                self.ps
-                    .bvh
-                    .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
-            if !hit.is_hit() {
-                sum += self.sky * (std::f32::consts::PI / fb);
-                continue;
-            }
-            let tri = &self.ps.bvh.triangles[hit.tri as usize];
-            if tri.light == crate::pathtrace::NONE {
-                continue;
-            }
-            let [a, b, c] = tri.corners();
-            let cos_l = -dir.dot((b - a).cross(c - a).normalize());
-            if cos_l <= 0.0 {
-                continue; // the back of an emitter
-            }
-            let pdf_b = n.dot(dir) * std::f32::consts::FRAC_1_PI;
-            let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
-            let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
-            let le = self.ps.emission(hit.tri, hit.u, hit.v);
-            sum += le * (w * std::f32::consts::PI / fb);
-        }
-        // Suns: one shadow ray per point.
-        if !lights.suns.is_empty() {
-            let mut sun = Vec3::ZERO;
-            for &p in &points {
-                let origin = offset_ray_origin(p, n);
-                for s in &lights.suns {
-                    let cos = n.dot(s.to_sun);
-                    if cos > 0.0
+            let mut sum = Vec3::ZERO;
+            // Light samples (stratified over the emitters' sample space, paired at random with
+            // the point strata).
+            let strata = shuffled_strata(n_l, &mut rng);
+            for k in 0..n_l as usize {
+                let p = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
+                let u = strata.point(k, &mut rng);
+                let (e, u) = lights.pick_emitter_remapped(u);
+                let tri = &self.ps.bvh.triangles[e.tri as usize];
+                let [a, b, c] = tri.corners();
+                let bary = sampling::triangle_barycentrics(u);
+                let x = a * (1.0 - bary.x - bary.y) + b * bary.x + c * bary.y;
+                let nl = (b - a).cross(c - a).normalize();
+                let to = x - p;
+                let d2 = to.length_squared();
+                let wi = to / d2.sqrt();
+                let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
+                let mut value = Vec3::ZERO;
+                if cos_r > 0.0 && cos_l > 0.0 {
+                    let pdf_l = e.pdf / e.area * d2 / cos_l;
+                    let m =
+                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, n)));
+                    let pdf_b = m * cos_r * std::f32::consts::FRAC_1_PI;
+                    let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
+                    let origin = offset_ray_origin(p, n);
+                    let target = offset_ray_origin(x, nl);
+                    if w > 0.0
                         && !self
                             .ps
                             .bvh
-                            .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
+                            .occluded(&Ray::new(origin, target - origin, 1.0))
                     {
-                        sun += s.irradiance * cos;
+                        let le = self.ps.emission(e.tri, bary.x, bary.y);
+                        value = le * (w * cos_r / (pdf_l * fl));
                     }
                 }
+                sum += value;
+                m_l.add(luminance(value) * fl);
             }
-            sum += sun / points.len() as f32;
+            // Cosine rays (the first `n_u`) and guided ones: the sky, and emitters weighted
+            // against the light samples.
+            let strata = shuffled_strata(n_u, &mut rng);
+            for k in 0..n_b as usize {
+                let p = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
+                let u = match guide {
+                    Some(g) if k >= n_u as usize => {
+                        let v = ((k - n_u as usize) as f32 + rng.next_f32()) / (n_b - n_u) as f32;
+                        g.sample(v, rng.next_2d())
+                    }
+                    _ => strata.point(k, &mut rng),
+                };
+                let m = guide::mixture(guide, n_u, n_b, guide::cell_of(u));
+                let value = self.direct_ray(p, n, u, m, fl, fb);
+                sum += value;
+                m_b.add(luminance(value) * fb);
+            }
+            rays += n_l + n_b;
+            // Suns: one shadow ray per point.
+            if !lights.suns.is_empty() {
+                let mut sun = Vec3::ZERO;
+                for &p in &points {
+                    let origin = offset_ray_origin(p, n);
+                    let mut value = Vec3::ZERO;
+                    for s in &lights.suns {
+                        let cos = n.dot(s.to_sun);
+                        if cos > 0.0
+                            && !self
+                                .ps
+                                .bvh
+                                .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
+                        {
+                            value += s.irradiance * cos;
+                        }
+                    }
+                    sun += value;
+                    m_s.add(luminance(value));
+                }
+                rays += (points.len() * lights.suns.len()) as u32;
+                sum += sun / points.len() as f32;
+            }
+            total += sum;
+            rounds += 1;
+            if rounds < max_rounds {
+                let se = (m_l.variance_of_mean() + m_b.variance_of_mean() + m_s.variance_of_mean())
+                    .sqrt();
+                let value = luminance(total / rounds as f32) + floor;
+                if se <= s.target_error * value {
+                    break;
+                }
+            }
         }
-        Some(sum)
+        Some(DirectTexel {
+            e: total / rounds as f32,
+            variance: m_l.variance_of_mean() + m_b.variance_of_mean() + m_s.variance_of_mean(),
+            rays,
+        })
+    }
+
+    /// What one ray of the direct estimator from `p` (normal `n`) at square point `u` adds:
+    /// the sky if it leaves the scene, an emitter's front weighted against the light samples,
+    /// with the rays' density `m` relative to cosine sampling.
+    fn direct_ray(&self, p: Vec3, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
+        let lights = &self.ps.lights;
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+        let hit = self
+            .ps
+            .bvh
+            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+        if !hit.is_hit() {
+            return self.sky * (std::f32::consts::PI / (fb * m));
+        }
+        let tri = &self.ps.bvh.triangles[hit.tri as usize];
+        if tri.light == crate::pathtrace::NONE {
+            return Vec3::ZERO;
+        }
+        let [a, b, c] = tri.corners();
+        let cos_l = -dir.dot((b - a).cross(c - a).normalize());
+        if cos_l <= 0.0 {
+            return Vec3::ZERO; // the back of an emitter
+        }
+        let pdf_b = m * n.dot(dir) * std::f32::consts::FRAC_1_PI;
+        let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
+        let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
+        let le = self.ps.emission(hit.tri, hit.u, hit.v);
+        le * (w * std::f32::consts::PI / (fb * m))
+    }
+}
+
+/// The first pass of the guided indirect estimator at one texel: its rays, their radiance and
+/// luminance per cell.
+struct FirstPass {
+    rays: u32,
+    radiance: Box<[Vec3; guide::CELLS]>,
+    luminance: Cells,
+}
+
+/// A texel of the indirect grid: its irradiance and the variance of that estimate
+/// (luminance).
+struct IndirectTexel {
+    e: Vec3,
+    variance: f32,
+}
+
+/// A texel of the stored atlas: its direct irradiance, the variance of that estimate
+/// (luminance) and the rays it took.
+pub struct DirectTexel {
+    pub e: Vec3,
+    pub variance: f32,
+    pub rays: u32,
+}
+
+/// Rec. 709 luminance.
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// Running sums of one estimator's samples, for the variance of their mean.
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    n: u32,
+    sum: f64,
+    sum2: f64,
+}
+
+impl Moments {
+    fn add(&mut self, x: f32) {
+        self.n += 1;
+        self.sum += f64::from(x);
+        self.sum2 += f64::from(x) * f64::from(x);
+    }
+
+    /// The sample variance / n (0 below two samples): the variance of the samples' mean; with
+    /// stratified samples an overestimate.
+    fn variance_of_mean(&self) -> f32 {
+        if self.n < 2 {
+            return 0.0;
+        }
+        let n = f64::from(self.n);
+        let mean = self.sum / n;
+        (((self.sum2 / n - mean * mean).max(0.0)) * n / (n - 1.0) / n) as f32
     }
 }
 
@@ -393,14 +673,244 @@ pub fn final_gather(
     };
     let grids = Grids::new(scene, field, gp)?;
     let pts = grids.indirect.points(scene, &g.ps.bvh);
-    let ind = crate::par::map(grids.indirect.atlas.texel_count(), threads, CHUNK, |t| {
-        g.indirect(&pts, t, gp.indirect_rays)
+    if gp.sampling.is_fixed() {
+        let ind = crate::par::map(grids.indirect.atlas.texel_count(), threads, CHUNK, |t| {
+            g.indirect(&pts, t, gp.indirect_rays)
+        });
+        let pts = grids.direct.points(scene, &g.ps.bvh);
+        let dir = crate::par::map(grids.direct.atlas.texel_count(), threads, CHUNK, |t| {
+            g.direct(&pts, t, gp)
+        });
+        return Ok(assemble(field, grids, &ind, &dir));
+    }
+    drop(g);
+    final_gather_sampled(scene, &ps, field, gp, grids, threads)
+}
+
+/// The final gather with guided and adaptive sampling (`gp.sampling`), in four steps:
+/// 1. where each texel of the indirect grid sees the sky (a quarter of its rays, cosine,
+///    occlusion only): the direct estimator's guide;
+/// 2. direct light on the stored atlas, guided, by rounds until its estimated error is below
+///    the target;
+/// 3. where the propagation kept its first bounce, the field the gather rays read becomes the
+///    light after the first bounce plus the direct light of step 2 (read on the stored atlas):
+///    the field's own first bounce of a sky seen through an opening is a sum of a few hundred
+///    parallel projections of the opening, blotchy at the scale of texels, and the gather's
+///    rays would carry those blotches to every receiver;
+/// 4. indirect light on the indirect grid: a first pass of cosine rays, then a second guided
+///    by the neighbours' first passes, all weighted by the balance heuristic.
+fn final_gather_sampled(
+    scene: &Scene,
+    ps: &PreparedScene,
+    field: &Converged,
+    gp: &GatherParams,
+    grids: Grids,
+    threads: usize,
+) -> Result<Gathered, ParamsError> {
+    let s = gp.sampling;
+    let later: Option<Vec<[f32; 4]>> = field.first_bounce.filter(|_| std::env::var_os("VLF_NO_FB").is_none()).map(|first| {
+        field
+            .irradiance
+            .iter()
+            .zip(first)
+            .map(|(e, f)| {
+                [
+                    (e[0] - f[0]).max(0.0),
+                    (e[1] - f[1]).max(0.0),
+                    (e[2] - f[2]).max(0.0),
+                    0.0,
+                ]
+            })
+            .collect()
     });
-    let pts = grids.direct.points(scene, &g.ps.bvh);
-    let dir = crate::par::map(grids.direct.atlas.texel_count(), threads, CHUNK, |t| {
-        g.direct(&pts, t, gp)
+    let mut g = Gatherer {
+        ps,
+        field: Field::new(
+            ps,
+            field.prep,
+            later.as_deref().unwrap_or(field.irradiance),
+            field
+                .tiles
+                .map(|(index, values)| Tiles::new(index, values, field.directions)),
+        )
+        .with_contacts(ps, threads),
+        sky: field.sky,
+    };
+    let coarse = &grids.indirect;
+    let coarse_pts = coarse.points(scene, &ps.bvh);
+    // 1. The sky guide.
+    let sky_cells: Vec<Option<Cells>> = if s.guided && field.sky != Vec3::ZERO {
+        crate::par::map(coarse.atlas.texel_count(), threads, CHUNK, |t| {
+            g.sky_cells(&coarse_pts, t, (gp.indirect_rays / 4).max(1))
+        })
+    } else {
+        Vec::new()
+    };
+    // 2. Direct light; the adaptive estimator's floor is the field's light after the first
+    // bounce (or all of it) at the texel.
+    let fine = &grids.direct;
+    let fine_pts = fine.points(scene, &ps.bvh);
+    let dir = crate::par::map(fine.atlas.texel_count(), threads, CHUNK, |t| {
+        let fi = fine.tex_face[t] as usize;
+        let f = &fine.atlas.faces[fi];
+        let side = (t as u32 - f.texel_base) / f.texels_per_side();
+        let p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+        let guide = if sky_cells.is_empty() {
+            None
+        } else {
+            let quad = Quad::at(&coarse.atlas.faces[fi], side, p);
+            let parts = (0..4).filter_map(|c| {
+                let cells = sky_cells[quad.texel[c] as usize].as_ref()?;
+                Some((cells, quad.weight(c)))
+            });
+            Guide::new(&Cells::blend(parts).w)
+        };
+        let floor = luminance(chart_bilinear(
+            &field.prep.faces[fi],
+            &g.field.irradiance,
+            side,
+            p,
+        ));
+        g.direct_texel(&fine_pts, t, gp, guide.as_ref(), floor)
     });
-    Ok(assemble(field, grids, &ind, &dir))
+    // 3. The field read with the gathered direct light.
+    if later.is_some() {
+        let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
+        let mut e: Vec<[f32; 4]> = dir
+            .iter()
+            .map(|d| d.as_ref().map_or(Vec3::ZERO, |d| d.e).extend(0.0).into())
+            .collect();
+        crate::bake::dilate_where(&fine.atlas, &mut e, &filled);
+        g.field.direct = Some((&fine.atlas, e));
+    }
+    // 4. Indirect light.
+    let ind = indirect_guided(&g, coarse, &coarse_pts, gp.indirect_rays, threads);
+    drop(g);
+    let var_ind: Vec<[f32; 4]> = ind
+        .iter()
+        .map(|e| [e.as_ref().map_or(0.0, |e| e.variance), 0.0, 0.0, 0.0])
+        .collect();
+    let var: Vec<f32> = dir
+        .iter()
+        .enumerate()
+        .map(|(t, d)| {
+            d.as_ref().map_or(0.0, |d| {
+                let fi = fine.tex_face[t] as usize;
+                let f = &fine.atlas.faces[fi];
+                let side = (t as u32 - f.texel_base) / f.texels_per_side();
+                let p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+                d.variance + chart_bilinear(&coarse.atlas.faces[fi], &var_ind, side, p).x
+            })
+        })
+        .collect();
+    let ind_e: Vec<Option<Vec3>> = ind.iter().map(|e| e.as_ref().map(|e| e.e)).collect();
+    let dir_e: Vec<Option<Vec3>> = dir.iter().map(|d| d.as_ref().map(|d| d.e)).collect();
+    let mut gathered = assemble(field, grids, &ind_e, &dir_e);
+    gathered.stats.sampling = Some(SamplingStats::of(&dir, &var, &gathered.irradiance));
+    gathered.variance = Some(var);
+    Ok(gathered)
+}
+
+/// The indirect grid by the guided estimator: a first pass of cosine rays everywhere, then each
+/// texel's second pass guided by its neighbours' first passes (the same side of the same face,
+/// one texel away in each of the four directions).
+fn indirect_guided(
+    g: &Gatherer,
+    grid: &Grid,
+    pts: &TexelPoints,
+    rays: u32,
+    threads: usize,
+) -> Vec<Option<IndirectTexel>> {
+    let atlas = &grid.atlas;
+    let first = crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
+        g.indirect_first(pts, t, rays)
+    });
+    crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
+        let own = first[t].as_ref()?;
+        let f = &atlas.faces[grid.tex_face[t] as usize];
+        let local = t as u32 - f.texel_base;
+        let (i, j) = (local % f.width, local % f.texels_per_side() / f.width);
+        let mut parts = Vec::with_capacity(4);
+        for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
+            let (ni, nj) = (i as i32 + di, j as i32 + dj);
+            if ni < 0 || nj < 0 || ni >= f.width as i32 || nj >= f.height as i32 {
+                continue;
+            }
+            let n = (t as i64 + i64::from(di) + i64::from(dj) * i64::from(f.width)) as usize;
+            if let Some(p) = &first[n] {
+                parts.push((&p.luminance, 1.0));
+            }
+        }
+        let guide = Guide::new(&Cells::blend(parts.into_iter()).w);
+        Some(g.indirect_second(pts, t, rays, own, guide.as_ref()))
+    })
+}
+
+/// Quantiles of a per-texel quantity over the stored atlas' open texels.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Distribution {
+    pub mean: f64,
+    pub p50: f64,
+    pub p90: f64,
+    pub p99: f64,
+    pub max: f64,
+}
+
+impl Distribution {
+    pub fn of(mut v: Vec<f64>) -> Distribution {
+        if v.is_empty() {
+            return Distribution::default();
+        }
+        v.sort_by(f64::total_cmp);
+        let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+        Distribution {
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            p50: q(0.5),
+            p90: q(0.9),
+            p99: q(0.99),
+            max: v[v.len() - 1],
+        }
+    }
+}
+
+/// How the stored atlas' direct light was sampled (`--json`, `gather.sampling`): rays per
+/// texel (light samples, cosine and guided rays, sun shadow rays) and the estimated relative
+/// standard error of each texel's irradiance (direct and the indirect grid's, luminance).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct SamplingStats {
+    pub texels: usize,
+    pub rays_per_texel: Distribution,
+    pub relative_error: Distribution,
+    /// Share of the texels that stopped before their last allowed round.
+    pub converged_share: f64,
+}
+
+impl SamplingStats {
+    fn of(dir: &[Option<DirectTexel>], var: &[f32], irradiance: &[[f32; 4]]) -> SamplingStats {
+        let open: Vec<(usize, &DirectTexel)> = dir
+            .iter()
+            .enumerate()
+            .filter_map(|(t, d)| Some((t, d.as_ref()?)))
+            .collect();
+        let most = open.iter().map(|(_, d)| d.rays).max().unwrap_or(0);
+        SamplingStats {
+            texels: open.len(),
+            rays_per_texel: Distribution::of(open.iter().map(|(_, d)| f64::from(d.rays)).collect()),
+            relative_error: Distribution::of(
+                open.iter()
+                    .map(|(t, _)| {
+                        let e = luminance(Vec4::from(irradiance[*t]).truncate());
+                        f64::from(var[*t].sqrt()) / f64::from(e.max(1e-12))
+                    })
+                    .collect(),
+            ),
+            converged_share: if open.is_empty() {
+                0.0
+            } else {
+                open.iter().filter(|(_, d)| d.rays < most).count() as f64 / open.len() as f64
+            },
+        }
+    }
 }
 
 /// The gathered atlas from the texel estimates: `indirect` per texel of the indirect grid,
@@ -460,5 +970,6 @@ pub fn assemble(
         atlas,
         irradiance,
         stats,
+        variance: None,
     }
 }

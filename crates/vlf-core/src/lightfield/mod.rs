@@ -23,7 +23,7 @@ use crate::directions::DirectionSet;
 use crate::scene::{Camera, SceneSummary, Similarity};
 pub use encoding::{DEFAULT_ENCODING, RadianceEncoding};
 pub use geometry::{BakeFace, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED};
-pub use params::{BakeParams, GatherParams, Iterations, ParamsError};
+pub use params::{BakeParams, GatherParams, Iterations, ParamsError, Sampling};
 pub use radiance::{InvalidStoredRadiance, NonFiniteRadiance, Radiance};
 pub use shading::{InvalidShading, NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture};
 pub use tiles::TileIndex;

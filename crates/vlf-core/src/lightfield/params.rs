@@ -54,6 +54,47 @@ pub struct GatherParams {
     pub direct_rays: u32,
     /// Gather rays per texel of the indirect grid.
     pub indirect_rays: u32,
+    /// Guided and adaptive sampling of the stored atlas' direct light.
+    #[serde(default)]
+    pub sampling: Sampling,
+    /// The edge-aware atlas denoiser runs over the gathered atlas (`gather::denoise`).
+    #[serde(default)]
+    pub denoise: bool,
+}
+
+/// How the final gather spends its rays on the stored atlas (`docs/GATHER.md`, *Guided rays*
+/// and *Rays where the noise is*).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sampling {
+    /// Draw three quarters of the cosine rays from the guide the indirect grid's rays measured
+    /// (where they saw the sky), weighted against cosine rays and light samples by MIS.
+    pub guided: bool,
+    /// Keep sampling a texel, a round (`light_samples` + `direct_rays`) at a time, while the
+    /// estimated standard error of its irradiance is above this fraction of its value
+    /// (0: one round).
+    pub target_error: f32,
+    /// Most rounds per texel.
+    pub max_rounds: u32,
+}
+
+impl Sampling {
+    /// One round of cosine rays and light samples per texel, as before guiding.
+    pub const FIXED: Sampling = Sampling {
+        guided: false,
+        target_error: 0.0,
+        max_rounds: 1,
+    };
+
+    /// Whether every texel gets exactly one unguided round.
+    pub fn is_fixed(&self) -> bool {
+        !self.guided && (self.target_error <= 0.0 || self.max_rounds <= 1)
+    }
+}
+
+impl Default for Sampling {
+    fn default() -> Self {
+        Sampling::FIXED
+    }
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -156,6 +197,19 @@ impl BakeParams {
             ] {
                 range(name, v <= 1 << 16, v.to_string(), "0..=65536")?;
             }
+            let t = g.sampling.target_error;
+            range(
+                "gather target error",
+                t.is_finite() && (0.0..1.0).contains(&t),
+                t.to_string(),
+                "[0, 1)",
+            )?;
+            range(
+                "gather max rounds",
+                (1..=256).contains(&g.sampling.max_rounds),
+                g.sampling.max_rounds.to_string(),
+                "1..=256",
+            )?;
         }
         match self.iterations {
             Iterations::Fixed(n) => range("iterations", n <= 10_000, n.to_string(), "0..=10000"),

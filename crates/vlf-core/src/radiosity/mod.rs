@@ -200,6 +200,7 @@ pub fn to_light_field(
         .collect();
     let propagated = reference::Propagated {
         irradiance,
+        first_bounce: None,
         tiles: None,
         iterations: solution.iterations,
         energy: reference::EnergyStats {

@@ -147,6 +147,7 @@ fn run(
     let mut state = iteration::HostRadiance::new(&host);
     let (max_iter, threshold) = reference::stopping(host.params.iterations);
     let mut iterations = 0;
+    let mut first_bounce = None;
     for it in 0..max_iter {
         iteration::run_iteration(
             ctx,
@@ -158,12 +159,16 @@ fn run(
             progress,
         )?;
         iterations = it + 1;
+        if it == 0 {
+            first_bounce = Some(state.irradiance.clone());
+        }
         if state.energy.converged(threshold) {
             break;
         }
     }
     Ok(Propagated {
         irradiance: state.irradiance,
+        first_bounce,
         tiles: host.setup.spec.map(|s| (s.index, state.total_tiles)),
         iterations,
         energy: state.energy,

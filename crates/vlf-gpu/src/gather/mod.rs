@@ -93,6 +93,10 @@ pub enum GpuGatherError {
     },
     #[error(transparent)]
     Fault(#[from] GpuFault),
+    #[error(
+        "the GPU gather samples fixed counts only (no guided or adaptive sampling, no denoiser): gather on the CPU"
+    )]
+    Unsupported,
     #[error("reading the gathered texels back failed")]
     Readback(#[from] wgpu::BufferAsyncError),
 }
@@ -403,6 +407,9 @@ pub fn final_gather_with(
     gp: &GatherParams,
     options: &GatherOptions,
 ) -> Result<Gathered, GpuGatherError> {
+    if !gp.sampling.is_fixed() || gp.denoise {
+        return Err(GpuGatherError::Unsupported);
+    }
     let grids = Grids::new(scene, field, gp)?;
     let ps = PreparedScene::new(scene);
     let device = &ctx.device;

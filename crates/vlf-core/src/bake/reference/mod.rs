@@ -70,6 +70,10 @@ pub struct Propagated {
     /// emission per pixel); the final gather reads the converged field through it. The
     /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it.
     pub irradiance: Vec<[f32; 4]>,
+    /// The irradiance of the first iteration alone (light straight from emitters, sky and
+    /// suns), where the propagation kept it: the final gather replaces it by its own direct
+    /// light, sampled by rays, where its gather rays read the field (`docs/GATHER.md`).
+    pub first_bounce: Option<Vec<[f32; 4]>>,
     /// Sparse tiles of non-diffuse faces and their total outgoing radiance (specular part).
     pub tiles: Option<(TileIndex, Vec<[f32; 4]>)>,
     pub iterations: u32,
@@ -218,6 +222,7 @@ pub fn propagate_with(
     let (max_iter, threshold) = stopping(params.iterations);
     let window = DIRECTIONS_AHEAD_PER_THREAD * crate::par::threads(threads);
     let mut iterations = 0;
+    let mut first_bounce = None;
     for it in 0..max_iter {
         let first = it == 0;
         let sky = if first { params.sky } else { Vec3::ZERO };
@@ -280,6 +285,9 @@ pub fn propagate_with(
             100.0 * (e.sent - e.received - e.escaped) / e.sent.max(1e-30)
         );
         energy.record(&e);
+        if first {
+            first_bounce = Some(irradiance.clone());
+        }
         accumulate(&mut total_tiles, &next_tiles);
         std::mem::swap(&mut unshot, &mut next);
         std::mem::swap(&mut unshot_tiles, &mut next_tiles);
@@ -290,6 +298,7 @@ pub fn propagate_with(
     }
     Propagated {
         irradiance,
+        first_bounce,
         tiles: spec.map(|s| (s.index, total_tiles)),
         iterations,
         energy,
