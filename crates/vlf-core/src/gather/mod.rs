@@ -708,7 +708,7 @@ fn final_gather_sampled(
     threads: usize,
 ) -> Result<Gathered, ParamsError> {
     let s = gp.sampling;
-    let later: Option<Vec<[f32; 4]>> = field.first_bounce.filter(|_| std::env::var_os("VLF_NO_FB").is_none()).map(|first| {
+    let later: Option<Vec<[f32; 4]>> = field.first_bounce.map(|first| {
         field
             .irradiance
             .iter()
