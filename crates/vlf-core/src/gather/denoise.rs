@@ -1085,17 +1085,26 @@ mod tests {
     #[test]
     #[ignore]
     fn denoise_cost() {
-        let scene = crate_on_floor();
-        let g = grid(&scene, 512.0);
-        let (e, _, v) = synthetic(&scene, &g, |_, _| 1.0, 0.1, 0.05, 6);
-        let filled = covered(&g);
-        let ps = PreparedScene::new(&scene);
+        let crate_scene = crate_on_floor();
+        let g = grid(&crate_scene, 512.0);
+        cost("crate on a floor", &crate_scene, &g);
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../assets/cornell-box/cornell-box.gltf");
+        let cornell = crate::scene::load(&path).unwrap();
+        let g = Grid::new(&cornell, 0.0045).unwrap();
+        cost("cornell-box", &cornell, &g);
+    }
+
+    fn cost(name: &str, scene: &Scene, g: &Grid) {
+        let (e, _, v) = synthetic(scene, g, |_, _| 1.0, 0.1, 0.05, 6);
+        let filled = covered(g);
+        let ps = PreparedScene::new(scene);
         for threads in [1, 2] {
             let t0 = std::time::Instant::now();
             let (_, s) = denoise(
-                &scene,
+                scene,
                 &ps.bvh,
-                &g,
+                g,
                 &e,
                 &v,
                 &filled,
@@ -1104,12 +1113,66 @@ mod tests {
             );
             let dt = t0.elapsed().as_secs_f64();
             eprintln!(
-                "{} texels ({} estimated), {threads} thread(s): {dt:.2} s, {:.2} s per million texels, {} rays",
+                "{name}: {} texels ({} estimated), {threads} thread(s): {dt:.2} s, {:.2} s per million texels, {} rays",
                 s.texels,
                 s.estimated_texels,
                 dt / s.texels as f64 * 1e6,
                 s.rays
             );
+        }
+    }
+
+    /// Settings against MSE on a flat plane, near a step and on a 4-texel ramp (a penumbra):
+    /// `cargo test -p vlf-core --lib denoise_sweep -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn denoise_sweep() {
+        let scene = plane();
+        let g = grid(&scene, ACROSS);
+        let ts = 2.0 / ACROSS;
+        let x = |t: usize| {
+            scene
+                .to_vlf
+                .inverse(Vec4::from(g.atlas.texel_center[t]).truncate())
+                .x
+        };
+        for (c, w) in [(0.1, 0.05), (0.25, 0.1)] {
+            let flat = synthetic(&scene, &g, |_, _| 1.0, c, w, 1);
+            let step = synthetic(
+                &scene,
+                &g,
+                |p: Vec3, _| if p.x < 0.0 { 1.0 } else { 0.1 },
+                c,
+                w,
+                2,
+            );
+            let ramp_f = |p: Vec3| 1.0 - 0.9 * ((p.x / (4.0 * ts)) + 0.5).clamp(0.0, 1.0);
+            let ramp = synthetic(&scene, &g, move |p: Vec3, _| ramp_f(p), c, w, 3);
+            for r in [2.0, 3.0, 4.0] {
+                for k in [2.0, 3.0, 4.0] {
+                    for passes in [1, 2, 3, 4] {
+                        let p = DenoiseParams {
+                            radius_texels: r,
+                            sigma_k: k,
+                            passes,
+                        };
+                        let f = |(e, m, v): &(Vec<[f32; 4]>, Vec<f32>, Vec<f32>),
+                                 pick: &dyn Fn(usize) -> bool| {
+                            let (out, _) = run(&scene, &g, e, v, &covered(&g), &p, 1);
+                            (mse(&g, e, m, pick), mse(&g, &out, m, pick))
+                        };
+                        let a = f(&flat, &|_| true);
+                        let s = f(&step, &|t| x(t).abs() < 3.0 * ts);
+                        let rr = f(&ramp, &|t| x(t).abs() < 4.0 * ts);
+                        eprintln!(
+                            "noise {c}/{w} R {r} k {k} passes {passes}: flat {:.1}x, step near edge {:.2}x, ramp {:.2}x",
+                            a.0 / a.1,
+                            s.0 / s.1,
+                            rr.0 / rr.1
+                        );
+                    }
+                }
+            }
         }
     }
 }
