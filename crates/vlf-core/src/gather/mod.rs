@@ -15,6 +15,7 @@
 //! a few ulps off the surface, and every texel has its own random stream, so the result does
 //! not depend on the thread count. This module is the specification of the GPU gather.
 
+pub mod denoise;
 pub mod field;
 pub mod guide;
 pub mod points;
