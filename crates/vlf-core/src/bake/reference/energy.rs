@@ -20,8 +20,12 @@ pub struct EnergyStats {
     pub absorbed: f64,
     /// Power that left the scene (rays reaching the unit sphere), all iterations.
     pub escaped: f64,
-    /// Power still unshot after the last iteration.
+    /// Power still unshot after the last iteration (signed: a texel that shot more than it
+    /// had, `reference::Shooting`, holds a negative residual).
     pub unshot: f64,
+    /// Σ |unshot| power after the last iteration (what the stopping rule reads); equal to
+    /// `unshot` when no residual is negative.
+    pub unshot_magnitude: f64,
     /// Unshot power after each iteration.
     pub unshot_history: Vec<f64>,
 }
@@ -33,14 +37,15 @@ impl EnergyStats {
         self.absorbed += e.absorbed;
         self.escaped += e.escaped;
         self.unshot = e.next;
+        self.unshot_magnitude = e.magnitude;
         self.unshot_history.push(e.next);
     }
 
-    /// Whether the unshot power is at most `threshold` × (emitted + injected); never for a
-    /// threshold of 0 (fixed iteration counts).
+    /// Whether the unshot power (its magnitude) is at most `threshold` × (emitted + injected);
+    /// never for a threshold of 0 (fixed iteration counts).
     pub fn converged(&self, threshold: f32) -> bool {
         let src = self.emitted + self.injected;
-        threshold > 0.0 && (src <= 0.0 || self.unshot <= f64::from(threshold) * src)
+        threshold > 0.0 && (src <= 0.0 || self.unshot_magnitude <= f64::from(threshold) * src)
     }
 
     /// (emitted + injected) − (absorbed + escaped + unshot), relative to emitted + injected.
@@ -71,7 +76,10 @@ pub struct IterationEnergy {
     pub injected: f64,
     pub absorbed: f64,
     pub escaped: f64,
+    /// Unshot power left after the iteration (signed).
     pub next: f64,
+    /// Σ |unshot| power left after the iteration (set by `Shooting::finish`).
+    pub magnitude: f64,
 }
 
 /// Per texel-side accumulators of one iteration (the GPU gather pass keeps the same two vec4s).
@@ -134,6 +142,8 @@ pub fn finish_iteration(
         e.next += sum3(b) * area;
         e.escaped += sum3(u) * f64::from(a.open.w * k) * area;
     }
+    // What `Shooting::finish` sets for shots of mixed sign and with the tiles' power.
+    e.magnitude = e.next;
     e
 }
 
