@@ -1,9 +1,10 @@
 //! One propagation iteration on the GPU: upload the unshot radiance, clear the accumulators,
 //! run the passes of every direction, read the accumulators back and finish the iteration on
-//! the CPU with `reference::finish_iteration`.
+//! the CPU with `reference::finish_iteration` and `reference::Shooting` (what the next
+//! iteration shoots), as the CPU reference does.
 
 use glam::Vec4;
-use vlf_core::bake::reference::{self, EnergyStats, IterationEnergy, TexelAccum};
+use vlf_core::bake::reference::{self, EnergyStats, IterationEnergy, Shooting, TexelAccum};
 
 use super::pipelines::BakePipelines;
 use super::resources::{Host, SceneResources};
@@ -18,8 +19,8 @@ const DIRS_PER_SUBMIT: usize = 32;
 
 /// The radiance the host keeps between iterations.
 pub(super) struct HostRadiance {
-    /// Unshot radiance of the texels (sent in the next iteration).
-    pub unshot: Vec<[f32; 4]>,
+    /// Unshot radiance of the texels and what the next iteration sends.
+    pub shooting: Shooting,
     pub unshot_tiles: Vec<[f32; 4]>,
     /// Total radiance of the mirror tiles (specular part), all iterations.
     pub total_tiles: Vec<[f32; 4]>,
@@ -36,7 +37,10 @@ impl HostRadiance {
         let scene = host.scene;
         let tile_len = host.tile_len();
         HostRadiance {
-            unshot: scene.emission.clone(),
+            shooting: Shooting::new(
+                scene,
+                reference::accelerates(host.params, host.setup.spec.is_some()),
+            ),
             unshot_tiles: vec![[0f32; 4]; tile_len],
             total_tiles: vec![[0f32; 4]; tile_len],
             next: vec![[0f32; 4]; host.texels()],
@@ -71,7 +75,8 @@ pub(super) fn run_iteration(
     let first = it == 0;
     let n_tex = host.texels();
     let tile_len = host.tile_len();
-    queue.write_buffer(&b.unshot, 0, bytemuck::cast_slice(&state.unshot));
+    let shot = state.shooting.prepare();
+    queue.write_buffer(&b.unshot, 0, bytemuck::cast_slice(shot));
     if tile_len > 0 {
         queue.write_buffer(
             &b.unshot,
@@ -171,7 +176,7 @@ pub(super) fn run_iteration(
         &host.tex_face,
         host.setup.spec.as_ref().map_or(&[][..], |s| &s.unresolved),
         &acc_host,
-        &state.unshot,
+        state.shooting.shot(),
         sky,
         &mut state.next,
         &mut state.irradiance,
@@ -193,9 +198,9 @@ pub(super) fn run_iteration(
         reference::accumulate(&mut state.total_tiles, &next_tiles);
         state.unshot_tiles = next_tiles;
     }
+    state.shooting.finish(scene, &state.next, &mut e);
     log_energy(it, &e);
     state.energy.record(&e);
-    std::mem::swap(&mut state.unshot, &mut state.next);
     Ok(())
 }
 

@@ -20,8 +20,12 @@ pub struct EnergyStats {
     pub absorbed: f64,
     /// Power that left the scene (rays reaching the unit sphere), all iterations.
     pub escaped: f64,
-    /// Power still unshot after the last iteration.
+    /// Power still unshot after the last iteration (signed: a texel that shot more than it
+    /// had, `reference::Shooting`, holds a negative residual).
     pub unshot: f64,
+    /// Σ |unshot| power after the last iteration (what the stopping rule reads); equal to
+    /// `unshot` when no residual is negative.
+    pub unshot_magnitude: f64,
     /// Unshot power after each iteration.
     pub unshot_history: Vec<f64>,
     /// [`IterationEnergy::lagging`] of the last iteration.
@@ -35,22 +39,24 @@ impl EnergyStats {
         self.absorbed += e.absorbed;
         self.escaped += e.escaped;
         self.unshot = e.next;
+        self.unshot_magnitude = e.magnitude;
         self.unshot_history.push(e.next);
         self.lagging = e.lagging;
     }
 
-    /// Whether the unshot power is at most `threshold` × (emitted + injected) and the last
-    /// iteration added at most [`LOCAL_FACTOR`] × `threshold` of their light to all but 1 % of
-    /// the lit texel area ([`IterationEnergy::lagging`]); never for a threshold of 0 (fixed
-    /// iteration counts). The local test is what keeps a room lit through its windows
-    /// iterating: the sky-lit ground outside holds nearly all the power, so the global test
-    /// alone stopped window-room after 3 iterations with the room's walls 20–40 % short of
-    /// their interreflected light (`docs/PROPAGATION.md`, *Stopping*).
+    /// Whether the unshot power (its magnitude) is at most `threshold` × (emitted + injected)
+    /// and the last iteration added at most [`LOCAL_FACTOR`] × `threshold` of their light to
+    /// all but 1 % of the lit texel area ([`IterationEnergy::lagging`]); never for a threshold
+    /// of 0 (fixed iteration counts). The local test is what keeps a room lit through its
+    /// windows iterating: the sky-lit ground outside holds nearly all the power, so the global
+    /// test alone stopped window-room after 3 iterations with the room short of its
+    /// interreflected light (`docs/PROPAGATION.md`, *Stopping*).
     pub fn converged(&self, threshold: f32) -> bool {
         let src = self.emitted + self.injected;
         let t = f64::from(threshold);
         threshold > 0.0
-            && (src <= 0.0 || (self.unshot <= t * src && self.lagging <= LOCAL_FACTOR * t))
+            && (src <= 0.0
+                || (self.unshot_magnitude <= t * src && self.lagging <= LOCAL_FACTOR * t))
     }
 
     /// (emitted + injected) − (absorbed + escaped + unshot), relative to emitted + injected.
@@ -81,7 +87,10 @@ pub struct IterationEnergy {
     pub injected: f64,
     pub absorbed: f64,
     pub escaped: f64,
+    /// Unshot power left after the iteration (signed).
     pub next: f64,
+    /// Σ |unshot| power left after the iteration (set by `Shooting::finish`).
+    pub magnitude: f64,
     /// The 99th percentile, over the lit texel area, of this iteration's irradiance as a share
     /// of the texel's total so far (luminance): how far the slowest 1 % of the surfaces still
     /// are from converged.
@@ -154,7 +163,7 @@ pub fn finish_iteration(
         irradiance[t] = (Vec4::from(irradiance[t]) + irr.extend(0.0)).into();
         let total = lum(Vec4::from(irradiance[t]).truncate());
         if total > 0.0 {
-            shares.push((lum(irr) / total, scene.texel_area[t]));
+            shares.push(((lum(irr) / total).abs(), scene.texel_area[t]));
         }
         let face = tex_face[t] as usize;
         let mut rho = Vec4::from(scene.albedo[t]).truncate();
@@ -175,6 +184,8 @@ pub fn finish_iteration(
         e.escaped += sum3(u) * f64::from(a.open.w * k) * area;
     }
     e.lagging = area_quantile(shares, 0.99);
+    // What `Shooting::finish` sets for shots of mixed sign and with the tiles' power.
+    e.magnitude = e.next;
     e
 }
 

@@ -33,6 +33,7 @@ mod gather;
 mod interface;
 mod lobe;
 mod reflect;
+mod shooting;
 mod tiles;
 mod transport;
 
@@ -45,6 +46,7 @@ pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
 pub use interface::{Interface, interface};
 pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe, face_lobe_support};
 pub use reflect::{nearest_crossing, reflect};
+pub use shooting::{Shooting, accelerates};
 pub use tiles::{
     LOBE_BYTES_PER_JOB, ReflectCounts, ReflectJob, Specular, SpecularSetup, reach_factors,
     reflect_counts, reflect_jobs, specular_outgoing, tile_index,
@@ -208,7 +210,7 @@ pub fn propagate_with(
     let spec = SpecularSetup::new(scene, set, &grid, &dirs);
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
-    let mut unshot = scene.emission.clone();
+    let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some()));
     let mut next = vec![[0f32; 4]; n_tex];
     let mut irradiance = vec![[0f32; 4]; n_tex];
     let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
@@ -229,6 +231,7 @@ pub fn propagate_with(
         let mut acc = vec![TexelAccum::default(); n_tex];
         next_tiles.fill([0.0; 4]);
         let mut spec_escaped = 0f64;
+        let unshot = shooting.prepare();
         // Suns shine in the first iteration only.
         let active = if first { dirs.len() } else { quadrature };
         let sender = spec.as_ref().map(|s| Specular {
@@ -246,7 +249,7 @@ pub fn propagate_with(
                     .as_ref()
                     .zip(spec.as_ref())
                     .map(|(sender, s)| (sender, s.jobs[di].as_slice()));
-                gather_direction(scene, &grid, &dirs[di], &unshot, &tex_face, sp, sky)
+                gather_direction(scene, &grid, &dirs[di], unshot, &tex_face, sp, sky)
             },
             |di, g| {
                 g.add_to(scene, &dirs[di], &tex_face, &mut acc, &mut next_tiles);
@@ -264,7 +267,7 @@ pub fn propagate_with(
             &tex_face,
             spec.as_ref().map_or(&[][..], |s| &s.unresolved),
             &acc,
-            &unshot,
+            unshot,
             sky,
             &mut next,
             &mut irradiance,
@@ -275,13 +278,16 @@ pub fn propagate_with(
             e.next += tile_power(&s.index, &next_tiles, set, &grid);
             e.escaped += spec_escaped;
         }
+        shooting.finish(scene, &next, &mut e);
         log::debug!(
-            "iteration {it}: sent {:.5} received {:.5} escaped {:.5} injected {:.5} next {:.5}; sent − received − escaped = {:.3}%",
+            "iteration {it}: ω {:.3} sent {:.5} received {:.5} escaped {:.5} injected {:.5} next {:.5} (|next| {:.5}); sent − received − escaped = {:.3}%",
+            shooting.omega(),
             e.sent,
             e.received,
             e.escaped,
             e.injected,
             e.next,
+            e.magnitude,
             100.0 * (e.sent - e.received - e.escaped) / e.sent.max(1e-30)
         );
         energy.record(&e);
@@ -289,7 +295,6 @@ pub fn propagate_with(
             first_bounce = Some(irradiance.clone());
         }
         accumulate(&mut total_tiles, &next_tiles);
-        std::mem::swap(&mut unshot, &mut next);
         std::mem::swap(&mut unshot_tiles, &mut next_tiles);
         iterations = it + 1;
         if energy.converged(threshold) {
