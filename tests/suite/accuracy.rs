@@ -17,6 +17,9 @@
 //!   HDR-FLIP, whose reference's noise near black pixels makes relMSE meaningless
 //!   (`reference/README.md`), ≤ 0.1875 (half the issue's 0.375; measured 0.1069), its mean
 //!   radiance within 2 % of the reference's (measured 0.3 %; 22–38 % too bright at the issue).
+//! * issue 24 (guided and adaptive gather, local stopping rule, atlas denoiser): window-room
+//!   ≤ 1.5e-3 and mean FLIP ≤ 0.13 (measured 1.25e-3 / 0.108; the issue's FLIP goal of 0.06
+//!   is not met yet); cornell-box measured 2.90e-4 (bound unchanged).
 
 use glam::Vec3;
 use vlf_core::bake::{BakeScene, Quality, auto};
@@ -50,11 +53,13 @@ fn stills_and_reference(
     final_gather: bool,
     mirror_tracing: &[bool],
     propagation: Propagation,
+    sky: Vec3,
 ) -> Option<(Vec<Image>, Image)> {
     let ctx = gpu()?;
     let scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
     // What `vlf-bake bake` does by default: the auto preset refined from the scene.
-    let params = auto::choose(&scene, Quality::Auto, final_gather).params;
+    let mut params = auto::choose(&scene, Quality::Auto, final_gather).params;
+    params.sky = sky;
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = match propagation {
@@ -104,6 +109,7 @@ fn rel_mse_against_reference_with(
         final_gather,
         mirror_tracing,
         Propagation::Gpu,
+        Vec3::ZERO,
     )?;
     Some(stills.iter().map(|t| image::rel_mse(t, &refimg)).collect())
 }
@@ -209,6 +215,7 @@ fn default_quality_lava_circuit_matches_path_traced_reference_by_flip() {
         &[true],
         // Its unshot radiance (129 MiB) exceeds lavapipe's 128 MiB storage binding.
         Propagation::Cpu,
+        Vec3::ZERO,
     ) else {
         return;
     };
@@ -225,4 +232,27 @@ fn default_quality_lava_circuit_matches_path_traced_reference_by_flip() {
             "mean radiance / reference's {r:.3}"
         );
     }
+}
+
+#[test]
+fn default_quality_window_room_matches_path_traced_reference() {
+    // Sky (1, 1, 1) only, through two windows (issue 24: 9.4e-3 and mean FLIP 0.35 at the
+    // issue; guided and adaptive sampling, the local stopping rule and the denoiser: measured
+    // 1.25e-3 and 0.108 on the 2-core VM). Propagated by the CPU reference (bit-identical).
+    let Some((stills, refimg)) = stills_and_reference(
+        "window-room/window-room.glb",
+        "window-room-ref.exr",
+        View::Camera0,
+        true,
+        &[true],
+        Propagation::Cpu,
+        Vec3::ONE,
+    ) else {
+        return;
+    };
+    let e = image::rel_mse(&stills[0], &refimg);
+    let flip = image::flip(&stills[0], &refimg).mean;
+    eprintln!("window-room, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
+    assert!(e <= 1.5e-3, "relMSE {e:.3e} > 1.5e-3");
+    assert!(flip <= 0.13, "mean HDR-FLIP {flip:.4} > 0.13");
 }

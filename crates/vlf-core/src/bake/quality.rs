@@ -73,7 +73,7 @@ impl Quality {
                 target_error,
                 max_rounds,
             },
-            denoise: false,
+            denoise: true,
         }
     }
 }

@@ -84,6 +84,9 @@ pub struct GatherStats {
     /// How the direct light was sampled, when guided or adaptive sampling ran.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sampling: Option<SamplingStats>,
+    /// What the atlas denoiser did, when it ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<denoise::DenoiseStats>,
 }
 
 impl GatherStats {
@@ -674,7 +677,7 @@ pub fn final_gather(
     };
     let grids = Grids::new(scene, field, gp)?;
     let pts = grids.indirect.points(scene, &g.ps.bvh);
-    if gp.sampling.is_fixed() {
+    if gp.sampling.is_fixed() && !gp.denoise {
         let ind = crate::par::map(grids.indirect.atlas.texel_count(), threads, CHUNK, |t| {
             g.indirect(&pts, t, gp.indirect_rays)
         });
@@ -806,8 +809,26 @@ fn final_gather_sampled(
         .collect();
     let ind_e: Vec<Option<Vec3>> = ind.iter().map(|e| e.as_ref().map(|e| e.e)).collect();
     let dir_e: Vec<Option<Vec3>> = dir.iter().map(|d| d.as_ref().map(|d| d.e)).collect();
+    let fine_texel = grids.direct.texel_size;
     let mut gathered = assemble(field, grids, &ind_e, &dir_e);
     gathered.stats.sampling = Some(SamplingStats::of(&dir, &var, &gathered.irradiance));
+    if gp.denoise {
+        // The stored atlas' grid again (the same atlas, deterministic), for its charts.
+        let grid = Grid::new(scene, fine_texel)?;
+        let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
+        let (e, stats) = denoise::denoise(
+            scene,
+            &ps.bvh,
+            &grid,
+            &gathered.irradiance,
+            &var,
+            &filled,
+            &denoise::DenoiseParams::default(),
+            threads,
+        );
+        gathered.irradiance = e;
+        gathered.stats.denoise = Some(stats);
+    }
     gathered.variance = Some(var);
     Ok(gathered)
 }
