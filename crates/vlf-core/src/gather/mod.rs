@@ -139,21 +139,14 @@ impl Gatherer<'_> {
         let mut sum = Vec3::ZERO;
         for (k, &p) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-            let hit =
-                self.ps
-                    .bvh
-                    .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
-            if hit.is_hit() {
-                sum += self.field_radiance(dir, &hit);
-            }
+            sum += self.gather_ray(p, n, u);
         }
         Some(sum * (std::f32::consts::PI / points.len() as f32))
     }
 
     /// The first pass of the guided indirect estimator: a quarter of the texel's `rays`
     /// (cosine, stratified in G × G cells, one ray a cell at the default 256), the radiance
-    /// each cell's rays brought and the sky they saw.
+    /// each cell's rays brought.
     fn indirect_first(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<FirstPass> {
         let n_a = (rays / 4).max(1);
         let mut rng = Rng::for_path(SEED, t as u32, STREAM_INDIRECT);
@@ -754,11 +747,15 @@ fn final_gather_sampled(
     // bounce (or all of it) at the texel.
     let fine = &grids.direct;
     let fine_pts = fine.points(scene, &ps.bvh);
-    let dir = crate::par::map(fine.atlas.texel_count(), threads, CHUNK, |t| {
+    // Face, side and centre of a stored texel.
+    let locate = |t: usize| {
         let fi = fine.tex_face[t] as usize;
         let f = &fine.atlas.faces[fi];
         let side = (t as u32 - f.texel_base) / f.texels_per_side();
-        let p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+        (fi, side, Vec4::from(fine.atlas.texel_center[t]).truncate())
+    };
+    let dir = crate::par::map(fine.atlas.texel_count(), threads, CHUNK, |t| {
+        let (fi, side, p) = locate(t);
         let guide = if sky_cells.is_empty() {
             None
         } else {
@@ -799,10 +796,7 @@ fn final_gather_sampled(
         .enumerate()
         .map(|(t, d)| {
             d.as_ref().map_or(0.0, |d| {
-                let fi = fine.tex_face[t] as usize;
-                let f = &fine.atlas.faces[fi];
-                let side = (t as u32 - f.texel_base) / f.texels_per_side();
-                let p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+                let (fi, side, p) = locate(t);
                 d.variance + chart_bilinear(&coarse.atlas.faces[fi], &var_ind, side, p).x
             })
         })
