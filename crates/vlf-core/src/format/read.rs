@@ -380,31 +380,7 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
             ),
         )));
     }
-    let mut params = BakeParams::from(&h.params);
-    if let Some(s) = h
-        .sections
-        .iter()
-        .find(|s| s.name == disk::SECTION_GATHER_SAMPLING)
-    {
-        let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
-        match (rec.as_slice(), params.final_gather.as_mut()) {
-            ([r], Some(g)) => r.apply(g),
-            _ => {
-                return Err(content((
-                    "gather sampling".into(),
-                    format!(
-                        "{} records for {} final gather",
-                        rec.len(),
-                        if params.final_gather.is_some() {
-                            "a"
-                        } else {
-                            "no"
-                        }
-                    ),
-                )));
-            }
-        }
-    }
+    let params = params_of(src, h, path)?;
     let to_vlf = (&h.transform).into();
     let cameras: Vec<_> = h.cameras.iter().map(Into::into).collect();
     validate_header_content(&params, &to_vlf, &cameras).map_err(content)?;
@@ -482,6 +458,48 @@ fn elements(s: &SectionEntry, path: &Path) -> Result<usize, FormatError> {
         reason: format!("{} elements do not fit in this platform's memory", s.count),
         path: path.to_owned(),
     })
+}
+
+/// The bake parameters a file records: the header's, with the final gather's sampling and
+/// denoising from section `gather_sampling` where the file has one. [`read_from`] and
+/// [`super::describe`] both read them here, so a file's parameters are the same whichever way
+/// it is opened (`vlf-bake batch` compares them to decide whether an output is up to date).
+pub(super) fn params_of(
+    src: &dyn Source,
+    h: &FileHeader,
+    path: &Path,
+) -> Result<BakeParams, FormatError> {
+    let content = |(element, reason)| FormatError::Content {
+        element,
+        reason,
+        path: path.to_owned(),
+    };
+    let mut params = BakeParams::from(&h.params);
+    if let Some(s) = h
+        .sections
+        .iter()
+        .find(|s| s.name == disk::SECTION_GATHER_SAMPLING)
+    {
+        let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
+        match (rec.as_slice(), params.final_gather.as_mut()) {
+            ([r], Some(g)) => r.apply(g),
+            _ => {
+                return Err(content((
+                    "gather sampling".into(),
+                    format!(
+                        "{} records for {} final gather",
+                        rec.len(),
+                        if params.final_gather.is_some() {
+                            "a"
+                        } else {
+                            "no"
+                        }
+                    ),
+                )));
+            }
+        }
+    }
+    Ok(params)
 }
 
 /// Reads a section of `Pod` elements with one read into an aligned `Vec` and checks it.
