@@ -255,17 +255,19 @@ fn is_open(p: vec3<f32>, n: vec3<f32>) -> bool {
         normalize(n * 0.5 + t * 0.8660254),
         normalize(n * 0.5 + (-t * 0.5 + b * 0.8660254) * 0.8660254),
     );
+    // A majority of the three (points.rs says why).
+    var open = 0u;
     for (var k = 0u; k < 3u; k++) {
         let d = dirs[k];
         let hit = trace(Ray(origin, 0.0, d, FAR), false);
-        if hit.tri == NONE {
-            return true;
+        if hit.tri == NONE || dot(tri_normal_raw(triangles[hit.tri]), d) <= 0.0 {
+            open++;
         }
-        if dot(tri_normal_raw(triangles[hit.tri]), d) <= 0.0 {
-            return true;
+        if open == 2u || open + 1u == k {
+            break;
         }
     }
-    return false;
+    return open >= 2u;
 }
 
 // TexelPoints::classify: 1 = all probes open, 0 = all closed, 2 = they disagree.

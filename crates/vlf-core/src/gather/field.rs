@@ -129,14 +129,27 @@ impl<'a> Field<'a> {
     /// nor the texels at the box's foot (which hold light from both sides), and a floor point
     /// outside not the dark ones.
     pub fn irradiance_at(&self, s: &SurfaceHit) -> Vec3 {
-        let f = &self.atlas.faces[s.face as usize];
-        let q = Quad::at(f, s.side, s.vlf);
+        self.irradiance_on(s.face, s.side, s.vlf, s.world)
+    }
+
+    /// Whether a read of `face`'s `side` at VLF point `vlf` is plain bilinear (no contact
+    /// near it).
+    pub fn clear_at(&self, face: u32, side: u32, vlf: Vec3) -> bool {
+        let q = Quad::at(&self.atlas.faces[face as usize], side, vlf);
+        self.contacts.quad_is_clear(&q)
+    }
+
+    /// [`Field::irradiance_at`] at a point of `face`'s `side` given in VLF (`vlf`) and world
+    /// (`world`) coordinates.
+    pub fn irradiance_on(&self, face: u32, side: u32, vlf: Vec3, world: Vec3) -> Vec3 {
+        let f = &self.atlas.faces[face as usize];
+        let q = Quad::at(f, side, vlf);
         let at = |t: u32| Vec4::from(self.irradiance[t as usize]).truncate();
         if self.contacts.quad_is_clear(&q) {
             return q.bilinear(&self.irradiance);
         }
-        let n = if s.side == 0 { f.normal() } else { -f.normal() };
-        let from = self.contacts.lift(f, s.world, n);
+        let n = if side == 0 { f.normal() } else { -f.normal() };
+        let from = self.contacts.lift(f, world, n);
         let sees = |t: u32| self.contacts.sees(from, self.contacts.centre(f, t, n));
         // The quad's texels that `s` sees: per class (uncut, cut), Σ w·E and Σ w.
         let mut quad = [(Vec3::ZERO, 0.0f32); 2];
@@ -152,8 +165,8 @@ impl<'a> Field<'a> {
             return quad[0].0 / quad[0].1;
         }
         // Uncut texels it sees within two texels (tent weights).
-        let c = chart_coords(f, s.vlf);
-        let base = f.texel_base + s.side * f.width * f.height;
+        let c = chart_coords(f, vlf);
+        let base = f.texel_base + side * f.width * f.height;
         let (ci, cj) = (c.x.floor() as i64, c.y.floor() as i64);
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
         for j in (cj - 2).max(0)..=(cj + 2).min(i64::from(f.height) - 1) {

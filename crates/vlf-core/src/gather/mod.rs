@@ -33,7 +33,7 @@ use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::scene::Scene;
 pub use field::Charts;
-use field::{Field, Tiles, chart_bilinear};
+use field::{Field, Tiles};
 use guide::{Cells, Guide};
 pub use points::{Openness, TexelPoints};
 use sampled::final_gather_sampled;
@@ -681,7 +681,7 @@ pub fn final_gather(
         let dir = crate::par::map(grids.direct.atlas.texel_count(), threads, CHUNK, |t| {
             g.direct(&pts, t, gp)
         });
-        return Ok(assemble(field, grids, &ind, &dir));
+        return Ok(assemble(&ps, field, grids, &ind, &dir, threads));
     }
     drop(g);
     final_gather_sampled(scene, &ps, field, gp, grids, threads)
@@ -689,19 +689,23 @@ pub fn final_gather(
 
 /// The gathered atlas from the texel estimates: `indirect` per texel of the indirect grid,
 /// `direct` per texel of the stored atlas (`None`: no open point). The indirect grid is
-/// dilated over its texels without a value and read bilinearly at each stored texel's centre;
-/// the sum is dilated over the stored atlas' texels without a value.
+/// dilated over its texels without a value and read at each stored texel's centre bilinearly,
+/// except that the read stops at contacts as the field's does ([`Field::irradiance_at`]): an
+/// indirect texel is coarser than a wall is thick, and one straddling a wall's foot holds light
+/// from both of its sides (a ceiling over a window wall read the sky-lit eaves). The sum is
+/// dilated over the stored atlas' texels without a value. Contacts are found on `threads`
+/// workers (0 = all cores).
 pub fn assemble(
+    ps: &PreparedScene,
     field: &Converged,
     grids: Grids,
     indirect: &[Option<Vec3>],
     direct: &[Option<Vec3>],
+    threads: usize,
 ) -> Gathered {
     let Grids {
         indirect: coarse,
-        direct: Grid {
-            atlas, tex_face, ..
-        },
+        direct: fine,
     } = grids;
     let coarse = coarse.atlas;
     let filled: Vec<bool> = indirect.iter().map(Option::is_some).collect();
@@ -710,18 +714,36 @@ pub fn assemble(
         .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
         .collect();
     crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
-    // Direct light plus the indirect grid read at each texel.
-    let dir: Vec<Option<(Vec3, Vec3)>> = direct
-        .iter()
-        .enumerate()
-        .map(|(t, d)| {
-            let direct = (*d)?;
-            let fi = tex_face[t] as usize;
-            let side = (t as u32 - atlas.faces[fi].texel_base) / atlas.faces[fi].texels_per_side();
-            let p = Vec4::from(atlas.texel_center[t]).truncate();
-            Some((direct, chart_bilinear(&coarse.faces[fi], &e_ind, side, p)))
-        })
-        .collect();
+    let coarse_field = Field {
+        scene: ps.scene,
+        atlas: &coarse,
+        irradiance: e_ind,
+        tiles: None,
+        direct: None,
+        contacts: field::Contacts::new(&ps.bvh, ps.scene, &coarse, threads),
+    };
+    // Direct light plus the indirect grid read at each texel: at its covered centroid where
+    // the coarse quad there is clear, else at the centroid of its open part.
+    let fine_pts = fine.points(ps.scene, &ps.bvh);
+    let dir: Vec<Option<(Vec3, Vec3)>> = crate::par::map(direct.len(), threads, 1024, |t| {
+        let direct = direct[t]?;
+        let fi = fine.tex_face[t] as usize;
+        let f = &fine.atlas.faces[fi];
+        let side = (t as u32 - f.texel_base) / f.texels_per_side();
+        let mut p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+        if !coarse_field.clear_at(fi as u32, side, p)
+            && let Some(w) = fine_pts.open_centroid(t)
+        {
+            p = ps.scene.to_vlf.apply(w);
+        }
+        let world = ps.scene.to_vlf.inverse(p);
+        Some((
+            direct,
+            coarse_field.irradiance_on(fi as u32, side, p, world),
+        ))
+    });
+    drop(coarse_field);
+    let Grid { atlas, .. } = fine;
     let mut stats = GatherStats {
         texels: atlas.texel_count(),
         covered_texels: atlas.texel_area.iter().filter(|a| **a > 0.0).count(),

@@ -8,7 +8,7 @@
 //! sample points with short rays and drop the enclosed ones; so does [`Openness`]: a point is
 //! closed when a probe along its normal hits anything within `r_close` (a gap thinner than
 //! about half a texel, which the atlas cannot resolve anyway), or when it lies inside a closed
-//! solid (probes along the normal and two tilted directions all reach back faces).
+//! solid (of three probes, along the normal and two tilted directions, most reach back faces).
 
 use glam::{Vec2, Vec3};
 
@@ -34,21 +34,33 @@ impl Openness<'_> {
         if self.bvh.occluded(&Ray::new(origin, n, self.r_close)) {
             return false;
         }
-        // Inside a closed solid every direction reaches a back face; one open direction or
-        // front face suffices to be outside (robust to a single surface with flipped winding).
+        // Inside a closed solid every direction reaches a back face; outside, most find a
+        // front face or nothing. A majority of three decides: one back face (a single surface
+        // with flipped winding) does not close a point, and one front face does not open it
+        // (inside a wall built of touching boxes, a ray crossing the shared face meets the
+        // neighbouring box's front face first).
         let (t, b) = sampling::basis(n);
         let tilt = |a: Vec3| (n * 0.5 + a * 0.866_025_4).normalize();
+        let (mut open, mut closed) = (0, 0);
         for d in [n, tilt(t), tilt(-t * 0.5 + b * 0.866_025_4)] {
             let hit = self.bvh.closest_hit(&Ray::new(origin, d, f32::INFINITY));
-            if !hit.is_hit() {
-                return true;
-            }
-            let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
-            if (b - a).cross(c - a).dot(d) <= 0.0 {
-                return true; // a front face
+            let front = !hit.is_hit() || {
+                let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
+                (b - a).cross(c - a).dot(d) <= 0.0
+            };
+            if front {
+                open += 1;
+                if open == 2 {
+                    return true;
+                }
+            } else {
+                closed += 1;
+                if closed == 2 {
+                    return false;
+                }
             }
         }
-        false
+        unreachable!("three directions reach a majority")
     }
 }
 
@@ -116,6 +128,41 @@ impl TexelPoints<'_> {
             (0, _) => Some(false),
             _ => None,
         }
+    }
+
+    /// Where texel `t` is read from as a whole (world): the centroid of its covered part when
+    /// that is all open, the mean of the open ones among the centres of a 4 × 4 grid over the
+    /// texel square (on the face) when part of it is closed, `None` when it is enclosed (or no
+    /// grid point is open). Deterministic: no random draws. A texel straddling a wall's foot
+    /// so reads the light of its open side, not of a centroid under the wall.
+    pub fn open_centroid(&self, t: usize) -> Option<Vec3> {
+        let (fi, _, corner) = self.locate(t);
+        let n = self.normal(t);
+        let centroid = self
+            .xf
+            .inverse(glam::Vec4::from(self.atlas.texel_center[t]).truncate());
+        if self.atlas.texel_area[t] <= 0.0 {
+            return None;
+        }
+        match self.classify(fi, corner, n) {
+            Some(true) => return Some(centroid),
+            Some(false) => return None,
+            None => {}
+        }
+        const G: u32 = 4;
+        let (mut sum, mut count) = (Vec3::ZERO, 0u32);
+        for k in 0..G * G {
+            let c = corner + (Vec2::new((k % G) as f32, (k / G) as f32) + 0.5) / G as f32;
+            if !self.charts.inside(fi, c) {
+                continue;
+            }
+            let p = self.world(fi, c);
+            if self.open.is_open(p, n) {
+                sum += p;
+                count += 1;
+            }
+        }
+        (count > 0).then(|| sum / count as f32)
     }
 
     /// Up to `count` stratified world points on texel `t` (its face, its lit side) where the

@@ -465,7 +465,14 @@ pub fn final_gather_with(
         };
         Ok((run(&grids.indirect, ind)?, run(&grids.direct, dir)?))
     })??;
-    Ok(spec::assemble(field, grids, &ind, &dir))
+    Ok(spec::assemble(
+        &ps,
+        field,
+        grids,
+        &ind,
+        &dir,
+        options.threads,
+    ))
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
