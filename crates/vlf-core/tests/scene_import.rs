@@ -563,7 +563,7 @@ fn fog_room_sun() {
 fn lighting_check() {
     let s = load_shared(SPHERES);
     let msg = scene::check_lighting(&s, None).unwrap_err().to_string();
-    assert_contains(&msg, &["no emitters, no sun and no sky", "room.glb"]);
+    assert_contains(&msg, &["no emitters, no lights and no sky", "room.glb"]);
     assert!(scene::check_lighting(&s, Some(Vec3::ZERO)).is_err());
     scene::check_lighting(&s, Some(Vec3::ONE)).unwrap();
     scene::check_lighting(&load_shared(FOG), None).unwrap();

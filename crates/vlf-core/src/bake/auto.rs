@@ -229,11 +229,17 @@ fn choose_gather(
     reasons: &mut Vec<String>,
 ) -> GatherParams {
     let mut g = quality.gather();
-    if !scene.suns.is_empty() {
-        // Sun shadows have no penumbra: their edges are as sharp as the stored atlas.
+    if !scene.suns.is_empty() || !scene.lights.is_empty() {
+        // Shadows of suns, point and spot lights have no penumbra (nor has a hard spot's
+        // cone): their edges are as sharp as the stored atlas.
         g.texel_scale *= 0.5;
+        let what = if scene.suns.is_empty() {
+            "the point and spot lights' sharp shadows"
+        } else {
+            "the sun's sharp shadows"
+        };
         reasons.push(format!(
-            "gather: texels of {} ray spacings for the sun's sharp shadows (half the preset's)",
+            "gather: texels of {} ray spacings for {what} (half the preset's)",
             g.texel_scale
         ));
     }
