@@ -158,13 +158,18 @@ pub fn finish_iteration(
         let u = Vec4::from(unshot[t]).truncate();
         e.sent += sum3(u) * std::f64::consts::PI * area;
         let a = acc[t];
-        if area <= 0.0 || a.irradiance.w <= 0.0 {
+        let e_lamp = punctual.map_or(Vec3::ZERO, |p| Vec4::from(p[t]).truncate());
+        // A texel no direction's rays reached still receives the lamps' light.
+        if area <= 0.0 || (a.irradiance.w <= 0.0 && e_lamp == Vec3::ZERO) {
             next[t] = [0.0; 4];
             continue;
         }
-        let k = std::f32::consts::PI / a.irradiance.w;
+        let k = if a.irradiance.w > 0.0 {
+            std::f32::consts::PI / a.irradiance.w
+        } else {
+            0.0
+        };
         let e_surf = a.irradiance.truncate() * k;
-        let e_lamp = punctual.map_or(Vec3::ZERO, |p| Vec4::from(p[t]).truncate());
         let e_inj = sky * (a.open.w * k) + a.open.truncate() + e_lamp;
         let irr = e_surf + e_inj;
         irradiance[t] = (Vec4::from(irradiance[t]) + irr.extend(0.0)).into();
