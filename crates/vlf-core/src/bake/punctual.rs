@@ -111,7 +111,7 @@ fn texel_irradiance(scene: &BakeScene, bvh: &Bvh, fi: usize, i: u32, mask: u16) 
             } else {
                 (1, -n, -cos)
             };
-            if !(cos > 0.0) || inc.irradiance == Vec3::ZERO {
+            if cos.is_nan() || cos <= 0.0 || inc.irradiance == Vec3::ZERO {
                 continue;
             }
             if !bvh.occluded(&l.shadow_ray(offset_ray_origin(p, nl), &inc)) {

@@ -114,7 +114,7 @@ impl DeltaLight {
         };
         let to = self.position - p;
         let d2 = to.dot(to);
-        if !(d2 > 0.0) {
+        if d2.is_nan() || d2 <= 0.0 {
             return none;
         }
         let dist = d2.sqrt();
