@@ -2,8 +2,8 @@
 //!
 //! [`load`] reads a `.gltf` or `.glb` file into a [`Scene`]: world-space triangles
 //! (node transforms applied), materials mapped to the propagator's material model,
-//! decoded base-colour and emissive textures, cameras, directional lights (suns), point and spot lights,
-//! the planar polygons ([`Face`]s) the light field is stored on, and the
+//! decoded base-colour and emissive textures, cameras, directional lights (suns), point
+//! and spot lights, the planar polygons ([`Face`]s) the light field is stored on, and the
 //! [`Similarity`] that maps the scene into the unit sphere of VLF coordinates.
 //!
 //! # Conventions (see `shared/reference/README.md`)
