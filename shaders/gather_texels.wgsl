@@ -12,12 +12,12 @@
 //   read stops at contacts as the CPU's (Field::irradiance_at; common/gather_field.wgsl), with
 //   the contact bits the CPU computed (Contacts) and short visibility rays.
 // * direct: light samples over the emitters and cosine rays combined with the power heuristic,
-//   the sky by the cosine rays, suns by shadow rays.
+//   the sky by the cosine rays, suns, point and spot lights by shadow rays.
 //
 // Steps. A texel's estimate is split into steps, one dispatch each, in the order the CPU draws:
 // begin (stream, class), draw_points (a batch of points each), finish_points (centroid
 // fallback, first strata), then indirect_rays (a batch of rays each), indirect_end; or
-// light_samples (batches), shuffle, cosine_rays (batches), sun_rays (batches of points),
+// light_samples (batches), shuffle, cosine_rays (batches), delta_rays (batches of points),
 // direct_end. Between steps the texel's state (random stream, points, strata order, partial
 // sums in the CPU's order of addition) stays in `scratch`, so the result does not depend on
 // the batch sizes. Why: llvmpipe (lavapipe) gives every shader invocation (a SIMD group of
@@ -144,7 +144,7 @@ struct TexelState {
     flags: u32,
     // The lit side's unit normal.
     n: vec3<f32>,
-    // The estimate so far, and the suns' sum over points (direct).
+    // The estimate so far, and the delta lights' sum over points (direct).
     sum: vec3<f32>,
     sun: vec3<f32>,
 }
@@ -583,7 +583,7 @@ fn indirect_end(
 
 // ---------------------------------------------------------------------------------------------
 // Direct estimator (Gatherer::direct): light samples and cosine rays combined with the power
-// heuristic, the sky by the cosine rays, suns by shadow rays.
+// heuristic, the sky by the cosine rays, suns, point and spot lights by shadow rays.
 
 // Light samples gg.k0 .. gg.k1 of gg.light_samples (stratified over the emitters' sample
 // space, paired at random with the point strata).
@@ -684,9 +684,10 @@ fn cosine_rays(
     end_step(&s);
 }
 
-// Suns: one shadow ray per point and sun, points gg.k0 .. gg.k1.
+// Delta lights (suns, point and spot lights): one shadow ray per point and light, points
+// gg.k0 .. gg.k1.
 @compute @workgroup_size(64)
-fn sun_rays(
+fn delta_rays(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -700,13 +701,13 @@ fn sun_rays(
         return;
     }
     for (var k = gg.k0; k < min(gg.k1, s.npts); k++) {
-        let origin = offset_origin(point(k), s.n);
-        for (var i = 0u; i < scene_info.sun_count; i++) {
-            let a = blob[scene_info.sun_base + 2u * i];
-            let b = blob[scene_info.sun_base + 2u * i + 1u];
-            let c = dot(s.n, a.xyz);
-            if c > 0.0 && trace(Ray(origin, 0.0, a.xyz, FAR), true).tri == NONE {
-                s.sun += b.xyz * c;
+        let p = point(k);
+        let origin = offset_origin(p, s.n);
+        for (var i = 0u; i < scene_info.delta_count; i++) {
+            let inc = delta_incident(i, p);
+            let c = dot(s.n, inc.wi);
+            if c > 0.0 && trace(delta_shadow_ray(i, origin, inc), true).tri == NONE {
+                s.sun += inc.irradiance * c;
             }
         }
     }
@@ -725,7 +726,7 @@ fn direct_end(
     }
     let s = load_state();
     var sum = s.sum;
-    if scene_info.sun_count > 0u && s.npts > 0u {
+    if scene_info.delta_count > 0u && s.npts > 0u {
         sum += s.sun / f32(s.npts);
     }
     write_estimate(t, s, sum);

@@ -209,17 +209,17 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
                     out.shadow_contrib = contrib;
                 }
             }
-        } else if scene_info.sun_count > 0u {
-            let si = pick_sun(u_light);
-            let a = blob[scene_info.sun_base + 2u * si];
-            let b = blob[scene_info.sun_base + 2u * si + 1u];
-            let wi = a.xyz;
-            let cos_i = dot(n, wi);
+        } else if scene_info.delta_count > 0u {
+            // A delta light (sun, point or spot): no MIS.
+            let li = pick_delta(u_light);
+            let inc = delta_incident(li, pos);
+            let pdf = blob[scene_info.delta_base + 4u * li + 1u].w;
+            let cos_i = dot(n, inc.wi);
             if cos_i > 0.0 {
-                let f = bsdf_eval(m, color, n, wo, wi);
-                let contrib = beta * f.xyz * b.xyz * (cos_i / ((1.0 - scene_info.p_emitters) * a.w));
+                let f = bsdf_eval(m, color, n, wo, inc.wi);
+                let contrib = beta * f.xyz * inc.irradiance * (cos_i / ((1.0 - scene_info.p_emitters) * pdf));
                 if any(contrib > vec3<f32>(0.0)) {
-                    out.shadow = Ray(origin, 0.0, wi, FAR);
+                    out.shadow = delta_shadow_ray(li, origin, inc);
                     out.shadow_contrib = contrib;
                 }
             }

@@ -12,10 +12,11 @@ struct RtSceneInfo {
     mat_base: u32,
     emitter_base: u32,
     emitter_count: u32,
-    sun_base: u32,
-    sun_count: u32,
+    // Delta lights (suns, point and spot lights), four entries each.
+    delta_base: u32,
+    delta_count: u32,
     tex_base: u32,
-    // Probability of sampling an emitter rather than a sun.
+    // Probability of sampling an emitter rather than a delta light.
     p_emitters: f32,
     _pad: u32,
 }
@@ -105,8 +106,9 @@ fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; sun:
-// [to_sun, pdf], [irradiance, cdf].
+// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; delta light
+// (DeltaLight): [position (sun: direction towards it), kind], [intensity (sun: irradiance),
+// pdf], [spot axis, cdf], [cone scale, cone offset, 1/range, 0].
 
 // Index of the emitter whose CDF interval holds u (binary search).
 fn pick_emitter(u: f32) -> u32 {
@@ -138,13 +140,65 @@ fn pick_emitter_remapped(u: vec2<f32>) -> RemappedEmitter {
     return RemappedEmitter(i, vec2<f32>(x, u.y));
 }
 
-fn pick_sun(u: f32) -> u32 {
-    for (var i = 0u; i < scene_info.sun_count; i++) {
-        if blob[scene_info.sun_base + 2u * i + 1u].w > u {
+// Index of the delta light whose CDF interval holds u (LightSet::pick_delta).
+fn pick_delta(u: f32) -> u32 {
+    for (var i = 0u; i < scene_info.delta_count; i++) {
+        if blob[scene_info.delta_base + 4u * i + 2u].w > u {
             return i;
         }
     }
-    return scene_info.sun_count - 1u;
+    return scene_info.delta_count - 1u;
+}
+
+// DeltaLight's kinds (vlf_core::pathtrace::lights::DELTA_SUN).
+const DELTA_SUN: u32 = 0u;
+
+// What delta light `i` brings to point p (DeltaLight::incident): the unit direction towards
+// it, its distance (FAR for a sun) and the irradiance on a surface facing it, the spot's
+// falloff clamp(cos · scale + offset, 0, 1)² and the range window clamp(1 − (d/range)⁴, 0, 1)
+// included.
+struct DeltaIncident {
+    wi: vec3<f32>,
+    dist: f32,
+    irradiance: vec3<f32>,
+}
+
+fn delta_incident(i: u32, p: vec3<f32>) -> DeltaIncident {
+    let o = scene_info.delta_base + 4u * i;
+    let a = blob[o];
+    let b = blob[o + 1u];
+    if bitcast<u32>(a.w) == DELTA_SUN {
+        return DeltaIncident(a.xyz, FAR, b.xyz);
+    }
+    let none = DeltaIncident(vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0));
+    let c = blob[o + 2u];
+    let d = blob[o + 3u];
+    let to = a.xyz - p;
+    let d2 = dot(to, to);
+    if !(d2 > 0.0) {
+        return none;
+    }
+    let dist = sqrt(d2);
+    let wi = to / dist;
+    let t = clamp(-dot(wi, c.xyz) * d.x + d.y, 0.0, 1.0);
+    let x = dist * d.z;
+    let x2 = x * x;
+    let window = clamp(1.0 - x2 * x2, 0.0, 1.0);
+    let e = b.xyz * (t * t * window / d2);
+    if any(e != e) || any(abs(e) > vec3<f32>(FAR)) {
+        return none;
+    }
+    return DeltaIncident(wi, dist, e);
+}
+
+// The shadow ray from `origin` towards delta light `i` (DeltaLight::shadow_ray): along a sun's
+// direction, the segment to a point or spot light's position.
+fn delta_shadow_ray(i: u32, origin: vec3<f32>, inc: DeltaIncident) -> Ray {
+    let a = blob[scene_info.delta_base + 4u * i];
+    if bitcast<u32>(a.w) == DELTA_SUN {
+        return Ray(origin, 0.0, inc.wi, FAR);
+    }
+    return Ray(origin, 0.0, a.xyz - origin, 1.0);
 }
 
 // Solid-angle pdf with which one light sample picks the point of emitter `light` seen at

@@ -49,12 +49,11 @@ pub fn resolve_params(
     apply_explicit(a, &mut p);
     if let Some(sky) = a.sky_if_unlit
         && p.sky == glam::Vec3::ZERO
-        && !scene.has_emitters()
-        && scene.suns.is_empty()
+        && !scene.has_lights()
     {
         p.sky = glam::Vec3::from(sky.0);
         let msg = format!(
-            "no emitter and no sun: lit by a sky of radiance {:?} (--sky-if-unlit)",
+            "no emitter, sun or lamp: lit by a sky of radiance {:?} (--sky-if-unlit)",
             sky.0
         );
         log::warn!("{}: {msg}", scene.source.display());

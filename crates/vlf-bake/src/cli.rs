@@ -169,7 +169,7 @@ pub struct BakeArgs {
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
-    /// Sky radiance to use only for scenes with no emitter, no sun and no --sky (which would
+    /// Sky radiance to use only for scenes with no emitter, no light (sun, point, spot) and no --sky (which would
     /// otherwise be refused as unlit). `batch` defaults it to 1,1,1; `bake` has no default.
     #[arg(long, value_name = "R,G,B")]
     pub sky_if_unlit: Option<Rgb>,
@@ -220,7 +220,7 @@ pub enum Command {
                       progress bar on stderr (on a terminal), and with --json a report written \
                       atomically after every scene.\n\n\
                       The device is opened once for the whole batch. Scenes without emitters, \
-                      suns or --sky fail with a clear message (no sky is added silently: pass \
+                      lights or --sky fail with a clear message (no sky is added silently: pass \
                       --sky R,G,B to light them). Ctrl-C stops cleanly: finished outputs stay, \
                       the scene in progress leaves no file under its name (its temporary file \
                       is removed), the report marks it `interrupted`, exit code 130. Stale \
@@ -253,7 +253,7 @@ pub enum Command {
         /// Bake scenes whose output is up to date too.
         #[arg(long)]
         force: bool,
-        /// Refuse scenes with no emitter, no sun and no --sky instead of lighting them with a
+        /// Refuse scenes with no emitter, no light (sun, point, spot) and no --sky instead of lighting them with a
         /// white sky of radiance 1 (the batch default for --sky-if-unlit).
         #[arg(long)]
         no_default_sky: bool,

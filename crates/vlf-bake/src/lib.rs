@@ -170,16 +170,91 @@ fn info(path: &Path, json: bool) -> anyhow::Result<()> {
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
     let summary = scene.summary();
+    let lights: Vec<LightReport> = scene.lights.iter().map(LightReport::of).collect();
     if json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        #[derive(serde::Serialize)]
+        struct Inspect<'a> {
+            #[serde(flatten)]
+            summary: &'a vlf_core::scene::SceneSummary,
+            lights: &'a [LightReport],
+        }
+        let out = Inspect {
+            summary: &summary,
+            lights: &lights,
+        };
+        println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
     }
     println!("scene {}", path.display());
     println!("{}", serde_json::to_string_pretty(&summary)?);
+    for l in &lights {
+        println!("{l}");
+    }
     for w in &scene.warnings {
         println!("warning: {w}");
     }
     Ok(())
+}
+
+/// A point or spot light as `inspect` lists it.
+#[derive(serde::Serialize)]
+struct LightReport {
+    name: Option<String>,
+    kind: &'static str,
+    position: [f32; 3],
+    direction: [f32; 3],
+    /// color × intensity (W/sr, radiometric).
+    intensity: [f32; 3],
+    /// Spot: (inner, outer) cone angles in radians.
+    cone: Option<[f32; 2]>,
+    range: Option<f32>,
+}
+
+impl LightReport {
+    fn of(l: &vlf_core::scene::PunctualLight) -> LightReport {
+        use vlf_core::scene::PunctualKind;
+        let (kind, cone) = match l.kind {
+            PunctualKind::Point => ("point", None),
+            PunctualKind::Spot { inner, outer } => ("spot", Some([inner, outer])),
+        };
+        LightReport {
+            name: l.name.clone(),
+            kind,
+            position: l.position.to_array(),
+            direction: l.direction.to_array(),
+            intensity: l.intensity.to_array(),
+            cone,
+            range: l.range,
+        }
+    }
+}
+
+impl std::fmt::Display for LightReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.position;
+        let [r, g, b] = self.intensity;
+        write!(f, "light: {}", self.kind)?;
+        if let Some(n) = &self.name {
+            write!(f, " {n:?}")?;
+        }
+        write!(
+            f,
+            " at ({x:.3}, {y:.3}, {z:.3}), color × intensity ({r:.4}, {g:.4}, {b:.4}) W/sr"
+        )?;
+        if let Some([inner, outer]) = self.cone {
+            let [dx, dy, dz] = self.direction;
+            write!(
+                f,
+                ", pointing ({dx:.3}, {dy:.3}, {dz:.3}), cone {inner:.4}–{outer:.4} rad ({:.2}°–{:.2}°)",
+                inner.to_degrees(),
+                outer.to_degrees()
+            )?;
+        }
+        match self.range {
+            Some(r) => write!(f, ", range {r} (windowed)"),
+            None => write!(f, ", no range"),
+        }
+    }
 }
 
 /// The compute device `--device` chose, with the reason (for `--json` and the summary line).

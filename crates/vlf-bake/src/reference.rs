@@ -36,6 +36,8 @@ pub struct ReferenceReport {
     pub triangles: usize,
     pub emissive_triangles: usize,
     pub suns: usize,
+    /// Point and spot lights.
+    pub lights: usize,
     pub mean_rgb: [f64; 3],
     pub render_s: f64,
     pub total_s: f64,
@@ -160,7 +162,8 @@ pub fn reference_command(
         camera: camera_desc,
         triangles: summary.triangles,
         emissive_triangles: prep.lights.emitters.len(),
-        suns: prep.lights.suns.len(),
+        suns: scene.suns.len(),
+        lights: scene.lights.len(),
         mean_rgb: image.mean(),
         render_s,
         total_s: t_total.elapsed().as_secs_f64(),

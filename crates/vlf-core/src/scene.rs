@@ -2,8 +2,8 @@
 //!
 //! [`load`] reads a `.gltf` or `.glb` file into a [`Scene`]: world-space triangles
 //! (node transforms applied), materials mapped to the propagator's material model,
-//! decoded base-colour and emissive textures, cameras, directional lights (suns),
-//! the planar polygons ([`Face`]s) the light field is stored on, and the
+//! decoded base-colour and emissive textures, cameras, directional lights (suns), point
+//! and spot lights, the planar polygons ([`Face`]s) the light field is stored on, and the
 //! [`Similarity`] that maps the scene into the unit sphere of VLF coordinates.
 //!
 //! # Conventions (see `shared/reference/README.md`)
@@ -18,6 +18,13 @@
 //!   textures are sRGB-decoded (the only kinds imported).
 //! - **Cameras** look down their local −Z with +Y up; `yfov` is vertical.
 //! - **Suns**: `irradiance = color × intensity`, read radiometrically.
+//! - **Point and spot lights** ([`PunctualLight`]): radiant intensity `I = color × intensity`
+//!   (W/sr, read radiometrically), irradiance `I·cos θ/d²` at distance d; spots fall off
+//!   between their inner and outer cone angles by the extension's recommended smooth curve, and
+//!   a `range` windows the inverse-square law by the extension's recommended
+//!   `clamp(1 − (d/range)⁴, 0, 1)` ([`PunctualLight::attenuation`]). Bad values (negative or
+//!   non-finite colour, intensity or range, cone angles outside `0 ≤ inner < outer ≤ π/2`) are
+//!   errors naming the light.
 //!
 //! # Errors and warnings
 //! Every fatal problem is a [`SceneError`] whose message names the element (buffer,
@@ -330,6 +337,66 @@ pub struct Sun {
     pub irradiance: Vec3,
 }
 
+/// The kind of a [`PunctualLight`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PunctualKind {
+    /// Light in every direction.
+    Point,
+    /// A cone about the light's direction: full intensity within `inner` radians of the axis,
+    /// none beyond `outer`, the extension's smooth falloff between ([`PunctualLight::cone`]).
+    Spot {
+        /// `innerConeAngle` (radians), `0 ≤ inner < outer`.
+        inner: f32,
+        /// `outerConeAngle` (radians), `≤ π/2`.
+        outer: f32,
+    },
+}
+
+/// A point or spot light (`KHR_lights_punctual` "point" / "spot"), world space.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PunctualLight {
+    /// Light name (or node name).
+    pub name: Option<String>,
+    pub kind: PunctualKind,
+    /// Position (the node's world translation).
+    pub position: Vec3,
+    /// Unit direction the light points in (the node's local −Z in world space); a spot's axis.
+    pub direction: Vec3,
+    /// Radiant intensity `color × intensity` (W/sr, radiometric reading): irradiance
+    /// `I·cos θ/d²` at distance d.
+    pub intensity: Vec3,
+    /// `range` (world units), when the file sets one.
+    pub range: Option<f32>,
+}
+
+impl PunctualLight {
+    /// `(scale, offset)` of the spot's angular falloff, the extension's recommended
+    /// `t = clamp(cos α · scale + offset, 0, 1)`, attenuation `t²`, with
+    /// `scale = 1 / max(0.001, cos inner − cos outer)` and `offset = −cos outer · scale`;
+    /// `(0, 1)` for a point light (attenuation 1 everywhere).
+    pub fn cone(&self) -> (f32, f32) {
+        match self.kind {
+            PunctualKind::Point => (0.0, 1.0),
+            PunctualKind::Spot { inner, outer } => {
+                let scale = 1.0 / (inner.cos() - outer.cos()).max(0.001);
+                (scale, -outer.cos() * scale)
+            }
+        }
+    }
+
+    /// The share of the intensity that reaches distance `d` along a ray at cosine `cos_axis`
+    /// from the axis: the spot's cone falloff times the range window
+    /// `clamp(1 − (d/range)⁴, 0, 1)` (1 without a range).
+    pub fn attenuation(&self, cos_axis: f32, d: f32) -> f32 {
+        let (scale, offset) = self.cone();
+        let t = (cos_axis * scale + offset).clamp(0.0, 1.0);
+        let window = self
+            .range
+            .map_or(1.0, |r| (1.0 - (d / r).powi(4)).clamp(0.0, 1.0));
+        t * t * window
+    }
+}
+
 /// Axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Aabb {
@@ -467,6 +534,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Directional lights.
     pub suns: Vec<Sun>,
+    /// Point and spot lights.
+    #[serde(default)]
+    pub lights: Vec<PunctualLight>,
     /// Bounds of all triangle vertices.
     pub bounds: Aabb,
     /// World → VLF coordinates.
@@ -528,6 +598,12 @@ impl Scene {
             .any(|f| self.materials[f.material as usize].is_emissive())
     }
 
+    /// Whether anything lights the scene by itself (the sky aside): an emissive triangle, a
+    /// sun or a point or spot light.
+    pub fn has_lights(&self) -> bool {
+        self.has_emitters() || !self.suns.is_empty() || !self.lights.is_empty()
+    }
+
     /// Counts for reports.
     pub fn summary(&self) -> SceneSummary {
         let mut used = vec![false; self.materials.len()];
@@ -578,10 +654,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 }
 
 /// Checks that something lights the scene: an emissive material used by a
-/// triangle, a sun, or a non-zero sky radiance.
+/// triangle, a sun, a point or spot light, or a non-zero sky radiance.
 pub fn check_lighting(scene: &Scene, sky: Option<Vec3>) -> Result<(), SceneError> {
     let sky_lit = sky.is_some_and(|s| s.is_finite() && s.max_element() > 0.0);
-    if scene.has_emitters() || !scene.suns.is_empty() || sky_lit {
+    if scene.has_lights() || sky_lit {
         Ok(())
     } else {
         Err(SceneError::NothingLit {

@@ -563,7 +563,7 @@ fn fog_room_sun() {
 fn lighting_check() {
     let s = load_shared(SPHERES);
     let msg = scene::check_lighting(&s, None).unwrap_err().to_string();
-    assert_contains(&msg, &["no emitters, no sun and no sky", "room.glb"]);
+    assert_contains(&msg, &["no emitters, no lights and no sky", "room.glb"]);
     assert!(scene::check_lighting(&s, Some(Vec3::ZERO)).is_err());
     scene::check_lighting(&s, Some(Vec3::ONE)).unwrap();
     scene::check_lighting(&load_shared(FOG), None).unwrap();
@@ -762,7 +762,7 @@ fn texture_is_decoded_to_linear() {
 }
 
 #[test]
-fn point_light_and_points_primitive_are_warnings() {
+fn point_light_is_imported_and_points_primitive_is_a_warning() {
     let dir = temp_dir("pointlight");
     let mut b = Builder::default();
     let rest = quad_scene(&mut b);
@@ -781,9 +781,12 @@ fn point_light_and_points_primitive_are_warnings() {
     let path = write(&dir, "point.gltf", b.document(Some(""), &rest));
     let s = scene::load(&path).unwrap();
     assert!(s.suns.is_empty());
+    assert_eq!(s.lights.len(), 1);
+    // glTF's defaults: white, at the node's origin.
+    assert_eq!(s.lights[0].intensity, Vec3::splat(5.0));
+    assert_eq!(s.lights[0].position, Vec3::ZERO);
     assert!(
-        s.warnings
-            .contains(&"light 0 (point) is not supported and is ignored".to_string()),
+        !s.warnings.iter().any(|w| w.contains("light")),
         "{:?}",
         s.warnings
     );
@@ -792,6 +795,182 @@ fn point_light_and_points_primitive_are_warnings() {
             .iter()
             .any(|w| w.contains("mesh 1 primitive 0") && w.contains("Points"))
     );
+}
+
+/// The quad scene with `lights` (the extension's array) on the nodes `nodes` (JSON objects
+/// after the mesh node 0; node 0 and those of `nodes` that are no node's child are roots).
+fn lights_scene(test: &str, lights: &str, nodes: &[&str]) -> PathBuf {
+    let dir = temp_dir(test);
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b);
+    let roots: Vec<String> = (0..=nodes.len())
+        .filter(|i| {
+            !nodes
+                .iter()
+                .any(|n| n.contains(&format!(r#""children":[{i}]"#)))
+        })
+        .map(|i| i.to_string())
+        .collect();
+    let rest = rest.replace(
+        r#""nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]"#,
+        &format!(
+            r#""nodes":[{{"mesh":0}},{}],"scenes":[{{"nodes":[{}]}}],
+            "extensions":{{"KHR_lights_punctual":{{"lights":{lights}}}}},
+            "extensionsUsed":["KHR_lights_punctual"]"#,
+            nodes.join(","),
+            roots.join(",")
+        ),
+    );
+    write(&dir, "lights.gltf", b.document(Some(""), &rest))
+}
+
+#[test]
+fn point_and_spot_lights_take_their_nodes_world_transforms() {
+    use vlf_core::scene::PunctualKind;
+    // A spot under a parent translated by (1, 2, 3) and turned −90° about +X ((x, y, z) →
+    // (x, z, −y): local −Z → −Y), itself translated by (0, 0, 1) in the parent (→ (0, 1, 0)).
+    let half = std::f32::consts::FRAC_1_SQRT_2;
+    let path = lights_scene(
+        "spotpoint",
+        r#"[{"type":"spot","name":"cone","color":[1,0.5,0.25],"intensity":8,
+             "spot":{"innerConeAngle":0.2,"outerConeAngle":0.4}},
+            {"type":"point","color":[0.5,1,1],"intensity":2,"range":3.5}]"#,
+        &[
+            &format!(r#"{{"translation":[1,2,3],"rotation":[-{half},0,0,{half}],"children":[2]}}"#),
+            r#"{"translation":[0,0,1],"extensions":{"KHR_lights_punctual":{"light":0}}}"#,
+            r#"{"name":"bulb","translation":[-1,0.5,0],"extensions":{"KHR_lights_punctual":{"light":1}}}"#,
+        ],
+    );
+    let s = scene::load(&path).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.lights.len(), 2);
+    let spot = &s.lights[0];
+    assert_eq!(spot.name.as_deref(), Some("cone"));
+    assert_eq!(
+        spot.kind,
+        PunctualKind::Spot {
+            inner: 0.2,
+            outer: 0.4
+        }
+    );
+    assert!(
+        (spot.position - Vec3::new(1.0, 3.0, 3.0)).length() < 1e-5,
+        "{}",
+        spot.position
+    );
+    assert!(
+        (spot.direction - Vec3::NEG_Y).length() < 1e-5,
+        "{}",
+        spot.direction
+    );
+    assert_eq!(spot.intensity, Vec3::new(8.0, 4.0, 2.0));
+    assert_eq!(spot.range, None);
+    let point = &s.lights[1];
+    assert_eq!(point.kind, PunctualKind::Point);
+    assert_eq!(
+        point.name.as_deref(),
+        Some("bulb"),
+        "the node's name when the light has none"
+    );
+    assert_eq!(point.position, Vec3::new(-1.0, 0.5, 0.0));
+    assert_eq!(point.intensity, Vec3::new(1.0, 2.0, 2.0));
+    assert_eq!(point.range, Some(3.5));
+    // The falloff: full inside the inner cone, none outside the outer, the extension's
+    // smooth curve between; the range window (1 − (d/r)⁴) at d = r/2 and beyond r.
+    assert_eq!(spot.attenuation(0.1f32.cos(), 1.0), 1.0);
+    assert_eq!(spot.attenuation(0.41f32.cos(), 1.0), 0.0);
+    let mid = 0.3f32.cos();
+    let t = (mid - 0.4f32.cos()) / (0.2f32.cos() - 0.4f32.cos());
+    assert!((spot.attenuation(mid, 1.0) - t * t).abs() < 1e-4);
+    assert!((point.attenuation(1.0, 1.75) - (1.0 - 0.0625)).abs() < 1e-6);
+    assert_eq!(point.attenuation(1.0, 3.6), 0.0);
+    scene::check_lighting(&s, None).expect("lit by its lamps alone");
+}
+
+#[test]
+fn bad_punctual_lights_are_errors_naming_the_light() {
+    let cases = [
+        (r#"{"type":"point","intensity":-1}"#, "intensity -1"),
+        (
+            r#"{"type":"point","color":[1,-0.5,1]}"#,
+            "color [1.0, -0.5, 1.0]",
+        ),
+        (r#"{"type":"point","color":[1,1,1e39]}"#, "must be finite"),
+        (
+            r#"{"type":"point","intensity":1e30,"color":[1e30,1,1]}"#,
+            "overflows",
+        ),
+        (r#"{"type":"point","range":0}"#, "range 0"),
+        (r#"{"type":"point","range":-2}"#, "range -2"),
+        (r#"{"type":"spot"}"#, "without its \"spot\""),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":0.5,"outerConeAngle":0.3}}"#,
+            "innerConeAngle 0.5, outerConeAngle 0.3",
+        ),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":0.3,"outerConeAngle":0.3}}"#,
+            "0 ≤ inner < outer ≤ π/2",
+        ),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":-0.1,"outerConeAngle":0.3}}"#,
+            "innerConeAngle -0.1",
+        ),
+        (
+            r#"{"type":"spot","spot":{"outerConeAngle":1.6}}"#,
+            "outerConeAngle 1.6",
+        ),
+    ];
+    for (i, (light, want)) in cases.iter().enumerate() {
+        let light = light.replace(r#"{"type""#, r#"{"name":"lamp","type""#);
+        let path = lights_scene(
+            &format!("badlight{i}"),
+            &format!("[{light}]"),
+            &[r#"{"extensions":{"KHR_lights_punctual":{"light":0}}}"#],
+        );
+        let msg = expect_err(&path);
+        assert_contains(&msg, &["light 0 (\"lamp\")", want]);
+    }
+    // A spot whose node squashes its direction to nothing.
+    let path = lights_scene(
+        "flatspot",
+        r#"[{"type":"spot","spot":{}}]"#,
+        &[r#"{"scale":[1,1,0],"extensions":{"KHR_lights_punctual":{"light":0}}}"#],
+    );
+    assert_contains(&expect_err(&path), &["node 1", "has no direction"]);
+}
+
+#[test]
+fn lamp_room_lights_import_without_warnings() {
+    use vlf_core::scene::PunctualKind;
+    let s = load_shared("lamp-room/lamp-room.glb");
+    assert!(s.suns.is_empty());
+    assert_eq!(s.lights.len(), 2);
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("light")),
+        "{:?}",
+        s.warnings
+    );
+    // The shared README: a point light of colour (1, 0.9, 0.75), intensity 6, and a spot of
+    // colour (0.6, 0.8, 1), intensity 30, with a hard 0.35 rad cone.
+    let point = s
+        .lights
+        .iter()
+        .find(|l| l.kind == PunctualKind::Point)
+        .unwrap();
+    assert!((point.intensity - Vec3::new(6.0, 5.4, 4.5)).length() < 1e-5);
+    let spot = s
+        .lights
+        .iter()
+        .find(|l| l.kind != PunctualKind::Point)
+        .unwrap();
+    assert!((spot.intensity - Vec3::new(18.0, 24.0, 30.0)).length() < 1e-4);
+    let PunctualKind::Spot { inner, outer } = spot.kind else {
+        unreachable!()
+    };
+    assert!((outer - 0.35).abs() < 1e-6 && (outer - inner - 0.005).abs() < 1e-6);
+    assert!(spot.direction.y < 0.0, "the spot points down");
+    assert!(s.bounds.min.cmple(point.position).all() && point.position.cmple(s.bounds.max).all());
+    scene::check_lighting(&s, None).expect("lamp-room is lit by its lamps");
 }
 
 // ----- fixtures: bad input ---------------------------------------------------------------

@@ -191,10 +191,11 @@ pub struct RtSceneInfo {
     pub mat_base: u32,
     pub emitter_base: u32,
     pub emitter_count: u32,
-    pub sun_base: u32,
-    pub sun_count: u32,
+    /// Delta lights (suns, point and spot lights): four entries each.
+    pub delta_base: u32,
+    pub delta_count: u32,
     pub tex_base: u32,
-    /// Probability of sampling an emitter rather than a sun.
+    /// Probability of sampling an emitter rather than a delta light.
     pub p_emitters: f32,
     pub _pad: u32,
 }
@@ -420,7 +421,7 @@ pub fn registry() -> Vec<SharedStruct> {
             tile_count,
         }),
         shared!(RtSceneInfo in "common/rt_scene.wgsl" {
-            mat_base, emitter_base, emitter_count, sun_base, sun_count, tex_base, p_emitters, _pad,
+            mat_base, emitter_base, emitter_count, delta_base, delta_count, tex_base, p_emitters, _pad,
         }),
         shared!(DirTables in "common/directions.wgsl" {
             face_normals, edge0, edge1, edge2, octant_faces, k, l, _pad0, _pad1,

@@ -96,7 +96,7 @@ fn gather_items(
         texture_texels: scene.textures.iter().map(|t| t.pixels.len() as u64).sum(),
         materials: scene.materials.len() as u64,
         has_emitters: scene.has_emitters(),
-        suns: !scene.suns.is_empty(),
+        delta_lights: !scene.suns.is_empty() || !scene.lights.is_empty(),
     };
     let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
     let plan = GatherPlan::new(&counts, gp, &GatherOptions::default(), limit, 256);

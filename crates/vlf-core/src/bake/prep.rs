@@ -19,6 +19,7 @@ use crate::directions::DirectionSet;
 use crate::lightfield::{
     BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
 };
+use crate::pathtrace::lights::DeltaLight;
 use crate::scene::{MaterialKind, Scene, Texture};
 
 /// Summary of a prepared scene (for logs and `--json`).
@@ -56,6 +57,10 @@ pub struct BakeScene {
     pub materials: Vec<glossy::BakedMaterial>,
     /// Suns in VLF: (travel direction, irradiance).
     pub suns: Vec<(Vec3, Vec3)>,
+    /// Point and spot lights in VLF (positions and ranges mapped, intensities scaled by the
+    /// VLF scale², so irradiance is unchanged): their direct light is injected into the
+    /// propagation's first iteration ([`super::punctual`]).
+    pub lights: Vec<DeltaLight>,
     pub texel_size: f32,
     pub warnings: Vec<String>,
 }
@@ -259,6 +264,12 @@ impl BakeScene {
             lobes,
             materials: baked,
             suns,
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| DeltaLight::punctual(l, &xf))
+                .filter(|l| l.intensity.max_element() > 0.0 && l.intensity.is_finite())
+                .collect(),
             texel_size,
             warnings,
         })

@@ -4,7 +4,7 @@
 //!
 //! * **direct light, sampled explicitly** at the stored atlas' resolution: area emitters
 //!   (textured ones too) by samples over their surface paired with stratified points of the
-//!   texel, with shadow rays; suns by shadow rays along their exact direction;
+//!   texel, with shadow rays; suns, point and spot lights by a shadow ray from each point;
 //! * **indirect light by gather rays** on a coarser grid (it varies slowly): stratified
 //!   cosine-distributed rays from stratified points of the texel read the converged light field
 //!   at their first hit ([`field`]: the propagation's irradiance times the hit point's albedo,
@@ -281,7 +281,7 @@ impl Gatherer<'_> {
     }
 
     /// Direct irradiance of texel `t`: emitters by light samples and cosine rays combined with
-    /// the power heuristic, suns by shadow rays, the sky by the cosine rays; `None` when the
+    /// the power heuristic, suns, point and spot lights by shadow rays, the sky by the cosine rays; `None` when the
     /// texel has no open point.
     fn direct(&self, pts: &TexelPoints, t: usize, gp: &GatherParams) -> Option<Vec3> {
         self.direct_texel(pts, t, gp, None, 0.0).map(|d| d.e)
@@ -392,27 +392,23 @@ impl Gatherer<'_> {
                 m_b.add(luminance(value) * fb);
             }
             rays += n_l + n_b;
-            // Suns: one shadow ray per point.
-            if !lights.suns.is_empty() {
+            // Delta lights (suns, point and spot lights): one shadow ray per point and light.
+            if !lights.delta.is_empty() {
                 let mut sun = Vec3::ZERO;
                 for &p in &points {
                     let origin = offset_ray_origin(p, n);
                     let mut value = Vec3::ZERO;
-                    for s in &lights.suns {
-                        let cos = n.dot(s.to_sun);
-                        if cos > 0.0
-                            && !self
-                                .ps
-                                .bvh
-                                .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
-                        {
-                            value += s.irradiance * cos;
+                    for s in &lights.delta {
+                        let inc = s.incident(p);
+                        let cos = n.dot(inc.wi);
+                        if cos > 0.0 && !self.ps.bvh.occluded(&s.shadow_ray(origin, &inc)) {
+                            value += inc.irradiance * cos;
                         }
                     }
                     sun += value;
                     m_s.add(luminance(value));
                 }
-                rays += (points.len() * lights.suns.len()) as u32;
+                rays += (points.len() * lights.delta.len()) as u32;
                 sum += sun / points.len() as f32;
             }
             total += sum;

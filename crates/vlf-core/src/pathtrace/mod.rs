@@ -11,9 +11,12 @@
 //! * **Materials**: [`material`] (Lambert / perfect mirror / GGX metal and their mix, from the
 //!   metallic and roughness factors; both sides reflect alike).
 //! * **Light**: emission `emissiveFactor × strength × texture` from the front (CCW) face only;
-//!   constant sky radiance for escaping rays; suns give irradiance `color × intensity`.
+//!   constant sky radiance for escaping rays; suns give irradiance `color × intensity`; point
+//!   and spot lights intensity `color × intensity` (irradiance I·cos θ/d², spot cones and
+//!   ranges as [`crate::scene::PunctualLight::attenuation`]), invisible to camera and BSDF rays.
 //! * **Estimator**: unidirectional path tracing with next-event estimation (one light sample per
-//!   vertex: an emissive triangle chosen ∝ power and sampled by area, or a sun), multiple
+//!   vertex: an emissive triangle chosen ∝ power and sampled by area, or a delta light — sun,
+//!   point or spot, chosen uniformly — by one shadow ray, without MIS), multiple
 //!   importance sampling with the power heuristic between light and BSDF sampling of emitters,
 //!   cosine sampling for Lambert, GGX visible-normal sampling for rough metal, the mirror as a
 //!   delta lobe, unlimited depth with Russian roulette from the fifth vertex on (unbiased).
@@ -418,16 +421,17 @@ impl<'a> PreparedScene<'a> {
             } else {
                 contrib
             }
-        } else if !lights.suns.is_empty() {
-            let s = lights.suns[lights.pick_sun(u_light)];
-            let wi = s.to_sun;
-            let cos_i = n.dot(wi);
+        } else if !lights.delta.is_empty() {
+            // A delta light (sun, point or spot): no MIS, BSDF sampling never hits it.
+            let s = lights.delta[lights.pick_delta(u_light)];
+            let inc = s.incident(p);
+            let cos_i = n.dot(inc.wi);
             if cos_i <= 0.0 {
                 return Vec3::ZERO;
             }
-            let (f, _) = material::eval(m, color, n, wo, wi);
-            let contrib = f * s.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
-            if contrib == Vec3::ZERO || self.bvh.occluded(&Ray::new(origin, wi, f32::INFINITY)) {
+            let (f, _) = material::eval(m, color, n, wo, inc.wi);
+            let contrib = f * inc.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
+            if contrib == Vec3::ZERO || self.bvh.occluded(&s.shadow_ray(origin, &inc)) {
                 Vec3::ZERO
             } else {
                 contrib

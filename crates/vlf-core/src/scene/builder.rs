@@ -110,6 +110,7 @@ impl SceneBuilder {
             textures: Vec::new(),
             cameras: Vec::new(),
             suns: Vec::new(),
+            lights: Vec::new(),
             bounds,
             to_vlf,
             warnings: Vec::new(),

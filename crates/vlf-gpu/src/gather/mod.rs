@@ -70,7 +70,7 @@ pub const DEFAULT_CHUNK: u32 = 4096;
 /// Sample points per `draw_points` step by default (up to 8 draws each, each with up to 4
 /// traced probes where the texel is partly enclosed).
 pub const DEFAULT_POINT_BATCH: u32 = 8;
-/// Rays (light samples, cosine rays, points of sun rays) per step by default.
+/// Rays (light samples, cosine rays, points of delta-light rays) per step by default.
 pub const DEFAULT_RAY_BATCH: u32 = 32;
 
 #[derive(Debug, thiserror::Error)]
@@ -112,7 +112,7 @@ pub enum Entry {
     IndirectEnd,
     LightSamples,
     CosineRays,
-    SunRays,
+    DeltaRays,
     DirectEnd,
 }
 
@@ -126,7 +126,7 @@ impl Entry {
         Entry::IndirectEnd,
         Entry::LightSamples,
         Entry::CosineRays,
-        Entry::SunRays,
+        Entry::DeltaRays,
         Entry::DirectEnd,
     ];
 
@@ -141,7 +141,7 @@ impl Entry {
             Entry::IndirectEnd => "indirect_end",
             Entry::LightSamples => "light_samples",
             Entry::CosineRays => "cosine_rays",
-            Entry::SunRays => "sun_rays",
+            Entry::DeltaRays => "delta_rays",
             Entry::DirectEnd => "direct_end",
         }
     }
@@ -278,14 +278,15 @@ pub struct Estimator {
     pub points: u32,
     pub light_samples: u32,
     pub cosine_rays: u32,
-    /// Whether the scene has suns (direct: one step per batch of points).
-    pub suns: bool,
+    /// Whether the scene has delta lights: suns, point or spot lights (direct: one step per
+    /// batch of points).
+    pub delta_lights: bool,
 }
 
 impl Estimator {
     /// The estimators of the two grids of `gp` (indirect, direct), as `vlf_core::gather`'s
     /// `indirect` and `direct` draw them.
-    pub fn of(gp: &GatherParams, has_emitters: bool, suns: bool) -> [Estimator; 2] {
+    pub fn of(gp: &GatherParams, has_emitters: bool, delta_lights: bool) -> [Estimator; 2] {
         [
             Estimator {
                 kind: Kind::Indirect,
@@ -293,7 +294,7 @@ impl Estimator {
                 points: gp.indirect_rays,
                 light_samples: 0,
                 cosine_rays: gp.indirect_rays,
-                suns: false,
+                delta_lights: false,
             },
             Estimator {
                 kind: Kind::Direct,
@@ -301,7 +302,7 @@ impl Estimator {
                 points: gp.light_samples.max(gp.direct_rays).max(1),
                 light_samples: if has_emitters { gp.light_samples } else { 0 },
                 cosine_rays: gp.direct_rays,
-                suns,
+                delta_lights,
             },
         ]
     }
@@ -377,8 +378,8 @@ pub fn steps(est: &Estimator, options: &GatherOptions) -> Vec<Step> {
                 options.ray_batch,
                 &mut s,
             );
-            if est.suns {
-                batches(Entry::SunRays, est.points, options.ray_batch, &mut s);
+            if est.delta_lights {
+                batches(Entry::DeltaRays, est.points, options.ray_batch, &mut s);
             }
             s.push(one(Entry::DirectEnd, 0));
         }
@@ -430,7 +431,7 @@ pub fn final_gather_with(
         let [ind, dir] = Estimator::of(
             gp,
             gpu_scene.packed.emitter_count > 0,
-            gpu_scene.packed.sun_count > 0,
+            gpu_scene.packed.delta_count > 0,
         );
         let run = |grid: &Grid, est: Estimator| {
             let mut opts = *options;

@@ -25,7 +25,8 @@ pub struct GatherCounts {
     pub texture_texels: u64,
     pub materials: u64,
     pub has_emitters: bool,
-    pub suns: bool,
+    /// Whether the scene has suns, point or spot lights.
+    pub delta_lights: bool,
 }
 
 /// One buffer (or texture) of the gather.
@@ -89,7 +90,7 @@ impl GatherPlan {
             ),
             buffer("FinalGather::tile_values", c.tile_values, 16),
         ];
-        let ests = Estimator::of(gp, c.has_emitters, c.suns);
+        let ests = Estimator::of(gp, c.has_emitters, c.delta_lights);
         let texels = [c.indirect_texels, c.direct_texels];
         let mut chunks = [0; 2];
         let mut grids: Vec<Vec<GatherBuffer>> = Vec::new();

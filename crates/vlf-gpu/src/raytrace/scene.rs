@@ -7,7 +7,7 @@
 //! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, face, 0]` |
 //! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, 0]` |
 //! | emitters, at `emitter_base` | per emitter: `[triangle, area, pdf, cdf]` |
-//! | suns, at `sun_base` | per sun: `[to_sun xyz, pdf]`, `[irradiance rgb, cdf]` |
+//! | delta lights, at `delta_base` | per light (suns, then point and spot lights, `vlf_core::pathtrace::lights::DeltaLight`): `[position (sun: direction towards it) xyz, kind]`, `[intensity (sun: irradiance) rgb, pdf]`, `[spot axis xyz, cdf]`, `[cone scale, cone offset, 1/range, 0]` |
 //! | textures, at `tex_base` | per texture: `[texel offset, width, height, wrap_s | wrap_t << 4]`, then all texels (linear RGBA) |
 //!
 //! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns. The path tracer reads
@@ -27,10 +27,10 @@ pub struct PackedScene {
     pub mat_base: u32,
     pub emitter_base: u32,
     pub emitter_count: u32,
-    pub sun_base: u32,
-    pub sun_count: u32,
+    pub delta_base: u32,
+    pub delta_count: u32,
     pub tex_base: u32,
-    /// Probability of sampling an emitter rather than a sun.
+    /// Probability of sampling an emitter rather than a delta light.
     pub p_emitters: f32,
 }
 
@@ -45,8 +45,8 @@ impl PackedScene {
             mat_base: self.mat_base,
             emitter_base: self.emitter_base,
             emitter_count: self.emitter_count,
-            sun_base: self.sun_base,
-            sun_count: self.sun_count,
+            delta_base: self.delta_base,
+            delta_count: self.delta_count,
             tex_base: self.tex_base,
             p_emitters: self.p_emitters,
             _pad: 0,
@@ -75,10 +75,12 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
     for e in &prep.lights.emitters {
         blob.push([bits(e.tri), e.area, e.pdf, e.cdf]);
     }
-    let sun_base = blob.len() as u32;
-    for s in &prep.lights.suns {
-        blob.push([s.to_sun.x, s.to_sun.y, s.to_sun.z, s.pdf]);
-        blob.push([s.irradiance.x, s.irradiance.y, s.irradiance.z, s.cdf]);
+    let delta_base = blob.len() as u32;
+    for l in &prep.lights.delta {
+        blob.push(l.position.extend(bits(l.kind)).into());
+        blob.push(l.intensity.extend(l.pdf).into());
+        blob.push(l.axis.extend(l.cdf).into());
+        blob.push([l.cone_scale, l.cone_offset, l.inv_range, 0.0]);
     }
     let tex_base = blob.len() as u32;
     let textures = &prep.scene.textures;
@@ -111,8 +113,8 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
         mat_base,
         emitter_base,
         emitter_count: prep.lights.emitters.len() as u32,
-        sun_base,
-        sun_count: prep.lights.suns.len() as u32,
+        delta_base,
+        delta_count: prep.lights.delta.len() as u32,
         tex_base,
         p_emitters: prep.lights.p_emitters,
     }
@@ -156,8 +158,8 @@ mod tests {
         assert_eq!(p.mat_base as usize, 2 * prep.bvh.triangles.len());
         assert_eq!(p.emitter_base, p.mat_base + 3 * 2);
         assert_eq!(p.emitter_count, 2);
-        assert_eq!(p.sun_base, p.emitter_base + 2);
-        assert_eq!(p.tex_base, p.sun_base);
+        assert_eq!(p.delta_base, p.emitter_base + 2);
+        assert_eq!(p.tex_base, p.delta_base);
         let header = p.blob[p.tex_base as usize];
         assert_eq!(header[0].to_bits(), p.tex_base + 1);
         assert_eq!((header[1].to_bits(), header[2].to_bits()), (2, 1));
