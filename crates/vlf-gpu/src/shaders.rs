@@ -44,6 +44,7 @@ pub static RENDER_DIRECTION_IDS: Shader = shader!("render_direction_ids.wgsl");
 pub static RENDER_BARYCENTRICS: Shader = shader!("render_barycentrics.wgsl");
 pub static RENDER_FACE_ID: Shader = shader!("render_face_id.wgsl");
 pub static RENDER_POSITION: Shader = shader!("render_position.wgsl");
+pub static RENDER_ATTRIBUTES: Shader = shader!("render_attributes.wgsl");
 pub static RENDER_FINAL_RADIANCE: Shader = shader!("render_final_radiance.wgsl");
 pub static RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
 pub static RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
@@ -97,6 +98,7 @@ pub static ALL: &[&Shader] = &[
     &RENDER_BARYCENTRICS,
     &RENDER_FACE_ID,
     &RENDER_POSITION,
+    &RENDER_ATTRIBUTES,
     &RENDER_FINAL_RADIANCE,
     &RENDER_DISPLAY,
     &RAYTRACE_ENGINE,
