@@ -47,12 +47,15 @@
 // pixel holds the mean over its square.
 //
 // Per-corner attributes (pipeline constant ATTRIBUTES; light fields with shading normals, vertex
-// colours or a texture read with TEXCOORD_1): the visible point's interpolated normal, colour and
-// TEXCOORD_1 come from pass 4b's targets (fs_main) or as varyings (fs_surface), a traced hit's
-// from the corner attributes (chain_surface); face flags say which faces use them. Vertex colours
-// multiply ρ_d and the mirror reflectance after the base-colour texture; each texture reads the
-// set its material names; smooth mirrors and glossy lobes reflect about the interpolated normal,
-// and a reflection below the geometric surface is black (vlf_gpu::render::mirror_trace).
+// colours or a texture read with TEXCOORD_1; common/surface_attributes.wgsl): the visible point's
+// interpolated normal, colour, TEXCOORD_1 and irradiance correction come from pass 4b's targets
+// (fs_main) or as varyings (fs_surface), a traced hit's from the corner attributes
+// (chain_surface); face flags say which faces use them. Vertex colours multiply ρ_d and the
+// mirror reflectance after the base-colour texture; each texture reads the set its material
+// names; on faces with smooth triangles the correction is added to the atlas's irradiance, which
+// makes it continuous across the faces' edges (vlf_gpu::render::attributes); smooth mirrors and
+// glossy lobes reflect about the interpolated normal, and a reflection below the geometric
+// surface is black (vlf_gpu::render::mirror_trace).
 //
 // In the window (fs_surface), textured light fields are drawn in two parts where the device
 // has a stencil for it (vlf_gpu::render::final_radiance): pixels showing a textured face (pass
@@ -69,6 +72,7 @@
 #import "common/mirror_tiles.wgsl"
 #import "common/sampling.wgsl"
 #import "common/hash.wgsl"
+#import "common/surface_attributes.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
@@ -136,31 +140,33 @@ const LOBE_SAMPLES: u32 = 4u;
 // vs_surface only: the scene's triangles (as pass 4 binds them) and their corners' TEXCOORD_0.
 @group(1) @binding(16) var<storage, read> surface_triangles: array<BakeTriangle>;
 @group(1) @binding(17) var<storage, read> surface_uvs: array<vec2<f32>>;
-// Pass 4b's targets: the visible point's [normal xyz, TEXCOORD_1 u], [colour rgb, TEXCOORD_1 v].
+// Pass 4b's targets: the visible point's attributes as common/surface_attributes.wgsl packs
+// them.
 @group(1) @binding(18) var attributes_a: texture_2d<f32>;
-@group(1) @binding(19) var attributes_b: texture_2d<f32>;
-// The corner attributes, two entries per corner, six per triangle in the light field's order
-// (vlf_gpu::render::upload::corner_attributes); the uploaded triangles and the mirror BVH's name
-// their index (_pad0, prim).
+@group(1) @binding(19) var attributes_b: texture_2d<u32>;
+// The corner attributes, CORNER_ENTRIES per corner, three corners per triangle in the light
+// field's order (vlf_gpu::render::attributes::corner_attributes); the uploaded triangles and the
+// mirror BVH's name their index (_pad0, prim).
 @group(1) @binding(20) var<storage, read> corner_attributes: array<vec4<f32>>;
 
-// What is interpolated at a point besides its position (vlf_gpu::render::final_radiance::
+// What is interpolated at a point besides its position (vlf_gpu::render::attributes::
 // PixelSurface): TEXCOORD_0, TEXCOORD_1, vertex colour, shading normal (not renormalised; zero
-// on flat triangles).
+// on flat triangles), irradiance correction of the side seen.
 struct Surface {
     uv: vec2<f32>,
     uv1: vec2<f32>,
     color: vec3<f32>,
     normal: vec3<f32>,
+    irradiance: vec3<f32>,
 }
 
 fn plain_surface(uv: vec2<f32>) -> Surface {
-    return Surface(uv, vec2<f32>(0.0), vec3<f32>(1.0), vec3<f32>(0.0));
+    return Surface(uv, vec2<f32>(0.0), vec3<f32>(1.0), vec3<f32>(0.0), vec3<f32>(0.0));
 }
 
-// The surface of attribute texels a = [n, t.x], b = [c, t.y] with TEXCOORD_0 uv.
-fn surface_of(uv: vec2<f32>, a: vec4<f32>, b: vec4<f32>) -> Surface {
-    return Surface(uv, vec2<f32>(a.w, b.w), b.xyz, a.xyz);
+// The surface of pass 4b's texels a, w (pack_surface) with TEXCOORD_0 uv.
+fn surface_of(uv: vec2<f32>, a: vec4<f32>, w: vec4<u32>) -> Surface {
+    return Surface(uv, a.zw, unpack_colour(w.x), oct_decode(a.xy), bitcast<vec3<f32>>(w.yzw));
 }
 
 // The texture coordinates of set 1 where `set1`, else set 0.
@@ -168,10 +174,10 @@ fn tex_uv(s: Surface, set1: bool) -> vec2<f32> {
     return select(s.uv, s.uv1, set1);
 }
 
-// Whether faces with flags `flags` (of kind `kind`) read the per-corner attributes.
-fn needs_attributes(flags: u32, kind: u32) -> bool {
-    let colour_or_uv = (flags & (FLAG_COLORS | FLAG_BASE_UV1 | FLAG_EMISSIVE_UV1)) != 0u;
-    return ATTRIBUTES && (colour_or_uv || ((flags & FLAG_SMOOTH) != 0u && kind != FACE_DIFFUSE));
+// Whether faces with flags `flags` read the per-corner attributes.
+fn needs_attributes(flags: u32) -> bool {
+    let any = FLAG_SMOOTH | FLAG_COLORS | FLAG_BASE_UV1 | FLAG_EMISSIVE_UV1;
+    return ATTRIBUTES && (flags & any) != 0u;
 }
 
 struct Face {
@@ -294,7 +300,11 @@ fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, s: Surface) 
         if ATTRIBUTES && (f.flags & FLAG_COLORS) != 0u {
             rho = rho * s.color;
         }
-        l = rho * atlas_irradiance(f, side, p);
+        var e = atlas_irradiance(f, side, p);
+        if ATTRIBUTES && (f.flags & FLAG_SMOOTH) != 0u {
+            e = e + s.irradiance;
+        }
+        l = rho * e;
     }
     if side == 0u && (f.flags & FLAG_EMISSIVE) != 0u {
         var le = f.emission;
@@ -331,23 +341,29 @@ fn shading_normal(f: Face, s: Surface, side: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(select(m, -m, dot(m, side) < 0.0), 1.0);
 }
 
-// The surface of a traced hit on the mirror BVH's triangle `hit.tri` (record `hf`): its
-// TEXCOORD_0 from the leaf-order uvs (textured faces), its other attributes from the corner
-// attributes (faces that read them) (vlf_gpu::render::final_radiance::PixelSurface::of_triangle).
-fn chain_surface(hit: Hit, prim: u32, hf: Face) -> Surface {
+// The surface of a traced hit on the mirror BVH's triangle `hit.tri` (record `hf`) seen from
+// `side`: its TEXCOORD_0 from the leaf-order uvs (textured faces), its other attributes from the
+// corner attributes (faces that read them) (vlf_gpu::render::attributes::PixelSurface::
+// of_triangle).
+fn chain_surface(hit: Hit, prim: u32, hf: Face, side: u32) -> Surface {
     let b0 = 1.0 - hit.u - hit.v;
     var s = plain_surface(vec2<f32>(0.0));
     if is_textured(hf) {
         let k = 3u * hit.tri;
         s.uv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
     }
-    if needs_attributes(hf.flags, hf.kind) {
-        let k = 6u * prim;
-        let a = corner_attributes[k] * b0 + corner_attributes[k + 2u] * hit.u
-            + corner_attributes[k + 4u] * hit.v;
-        let b = corner_attributes[k + 1u] * b0 + corner_attributes[k + 3u] * hit.u
-            + corner_attributes[k + 5u] * hit.v;
-        s = surface_of(s.uv, a, b);
+    if needs_attributes(hf.flags) {
+        let k = 3u * CORNER_ENTRIES * prim;
+        let c1 = k + CORNER_ENTRIES;
+        let c2 = k + 2u * CORNER_ENTRIES;
+        let a = corner_attributes[k] * b0 + corner_attributes[c1] * hit.u
+            + corner_attributes[c2] * hit.v;
+        let b = corner_attributes[k + 1u] * b0 + corner_attributes[c1 + 1u] * hit.u
+            + corner_attributes[c2 + 1u] * hit.v;
+        let j = 2u + side;
+        let e = corner_attributes[k + j] * b0 + corner_attributes[c1 + j] * hit.u
+            + corner_attributes[c2 + j] * hit.v;
+        s = Surface(s.uv, vec2<f32>(a.w, b.w), b.xyz, a.xyz, e.xyz);
     }
     return s;
 }
@@ -372,9 +388,9 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
         let q = t.p0 * b0 + t.p1 * hit.u + t.p2 * hit.v;
         let hf = load_face(hface);
         let n = hf.normal;
-        let hs = chain_surface(hit, t.prim, hf);
+        let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
+        let hs = chain_surface(hit, t.prim, hf, hside);
         if hf.kind == FACE_DIFFUSE {
-            let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
             return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, hs), 0.0);
         }
         if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
@@ -486,7 +502,7 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
         if is_textured(f) {
             s.uv = textureLoad(uvs, px, 0).xy;
         }
-        if needs_attributes(f.flags, f.kind) {
+        if needs_attributes(f.flags) {
             s = surface_of(s.uv, textureLoad(attributes_a, px, 0), textureLoad(attributes_b, px, 0));
         }
         l = shade_surface(face, f, p, s, px);
@@ -528,9 +544,11 @@ struct SurfaceVertex {
     @location(6) @interpolate(flat) r3: vec4<u32>,
     @location(7) @interpolate(flat) r4: vec4<u32>,
     @location(8) @interpolate(flat) r5: vec4<u32>,
-    // The corner attributes (zero without ATTRIBUTES).
+    // The corner attributes (zero without ATTRIBUTES): entries 0 and 1 and the correction of
+    // the side the eye sees.
     @location(9) attr_a: vec4<f32>,
     @location(10) attr_b: vec4<f32>,
+    @location(11) attr_e: vec3<f32>,
 }
 
 @vertex
@@ -551,10 +569,12 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
     out.r5 = face_texel(face, 5u);
     out.attr_a = vec4<f32>(0.0);
     out.attr_b = vec4<f32>(0.0);
+    out.attr_e = vec3<f32>(0.0);
     if ATTRIBUTES {
-        let k = 6u * tri._pad0 + 2u * (vi % 3u);
+        let k = CORNER_ENTRIES * (3u * tri._pad0 + vi % 3u);
         out.attr_a = corner_attributes[k];
         out.attr_b = corner_attributes[k + 1u];
+        out.attr_e = corner_attributes[k + correction_entry(tri, g.eye.xyz)].xyz;
     }
     return out;
 }
@@ -566,8 +586,10 @@ fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
     let f = face_from_record(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
     let px = vec2<i32>(vec2<u32>(in.clip.xy));
     var s = plain_surface(in.uv);
-    if needs_attributes(f.flags, f.kind) {
-        s = surface_of(in.uv, in.attr_a, in.attr_b);
+    if needs_attributes(f.flags) {
+        // Packed and unpacked as pass 4b stores them, so the window shades with the stills' bits.
+        let packed = pack_surface(in.attr_a, in.attr_b, in.attr_e);
+        s = surface_of(in.uv, packed.a, packed.w);
     }
     return present(shade_surface(in.face, f, in.position, s, px));
 }

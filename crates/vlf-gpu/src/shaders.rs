@@ -85,6 +85,7 @@ pub static COMMON_DIRECTIONS: Shader = shader!("common/directions.wgsl");
 pub static COMMON_MIRROR_TILES: Shader = shader!("common/mirror_tiles.wgsl");
 /// What a final-gather ray reads at its hit: the field's irradiance, stopping at contacts.
 pub static COMMON_GATHER_FIELD: Shader = shader!("common/gather_field.wgsl");
+pub static COMMON_SURFACE_ATTRIBUTES: Shader = shader!("common/surface_attributes.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -122,6 +123,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_DIRECTIONS,
     &COMMON_MIRROR_TILES,
     &COMMON_GATHER_FIELD,
+    &COMMON_SURFACE_ATTRIBUTES,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

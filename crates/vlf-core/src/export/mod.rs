@@ -510,10 +510,12 @@ impl<'a> Writer<'a> {
             indices: Vec<u32>,
             dedup: HashMap<[u32; 15], u32>,
         }
-        // Materials some of whose triangles have vertex colours: their primitives carry COLOR_0.
+        // Normals and colours as the light field holds them (a bake with `--flat-normals` has
+        // none); materials some of whose triangles have vertex colours carry COLOR_0.
+        let (normals, colors) = (&lf.shading.normals, &lf.shading.colors);
         let mut colored = vec![false; scene.materials.len()];
-        for t in &scene.triangles {
-            colored[t.material as usize] |= t.colors.is_some();
+        for (i, t) in scene.triangles.iter().enumerate() {
+            colored[t.material as usize] |= colors.as_ref().is_some_and(|c| c[i] != [[1.0; 3]; 3]);
         }
         let mut prims: Vec<((u32, bool, u32), Prim)> = Vec::new();
         let mut slot: HashMap<(u32, bool, u32), usize> = HashMap::new();
@@ -544,12 +546,16 @@ impl<'a> Writer<'a> {
                 });
                 let prim = &mut prims[k].1;
                 let (first, second) = export_sets(&scene.materials[face.material as usize]);
-                for tri in scene.face_triangles(fi) {
+                for ti in face.triangles.clone() {
+                    let tri = &scene.triangles[ti as usize];
                     let order: [usize; 3] = if back { [0, 2, 1] } else { [0, 1, 2] };
                     for c in order {
-                        let n = tri.normals.map_or(face.normal, |n| n[c]);
+                        let n = match normals.as_ref().map(|n| Vec3::from(n[ti as usize][c])) {
+                            Some(n) if n != Vec3::ZERO => n,
+                            _ => face.normal,
+                        };
                         let n = if back { -n } else { n }.to_array();
-                        let color = tri.colors.map_or([1.0; 3], |col| col[c].to_array());
+                        let color = colors.as_ref().map_or([1.0; 3], |col| col[ti as usize][c]);
                         let uv2 = second.map_or([0.0; 2], |set| tri.uv_set(set)[c].to_array());
                         let pos = tri.p[c];
                         let d = xf.apply(pos) - o;

@@ -76,9 +76,10 @@
 
 use std::collections::HashMap;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
+pub use super::attributes::{PixelSurface, SurfaceLookup, shading_normal};
 use super::targets::{
     DEPTH_STENCIL_FORMAT, MIRROR_STENCIL, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets,
 };
@@ -206,7 +207,7 @@ impl FinalRadiancePass {
     /// `textures`: the kinds of texture the light field's faces read; `mirrors`: whether it has
     /// mirror or mixed faces (then mirror pixels trace, [`super::mirror_trace`]);
     /// `attributes`: whether it has per-corner attributes (shading normals, vertex colours,
-    /// `TEXCOORD_1`; [`super::upload::has_attributes`]); `depth_format`: that of passes 3–4,
+    /// `TEXCOORD_1`; [`super::attributes::has_attributes`]); `depth_format`: that of passes 3–4,
     /// [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured faces in the stencil (see the module
     /// docs).
     pub fn new(
@@ -239,7 +240,7 @@ impl FinalRadiancePass {
                 storage_entry(16, vertex, true),
                 storage_entry(17, vertex, true),
                 texture_entry(18, vis, unfiltered),
-                texture_entry(19, vis, unfiltered),
+                texture_entry(19, vis, wgpu::TextureSampleType::Uint),
                 storage_entry(20, vis | vertex, true),
             ],
         });
@@ -612,94 +613,12 @@ pub fn atlas_irradiance(face: &BakeFace, irradiance: &Radiance, side: u32, p: Ve
     top.lerp(bottom, fy)
 }
 
-/// What pass 5 interpolates at a pixel besides its position: `TEXCOORD_0` and `TEXCOORD_1`,
-/// the vertex colour and the shading normal (not renormalised; zero on flat triangles). Read
-/// from pass 4's uv target and pass 4b's attribute targets ([`PixelSurface::from_targets`]), or
-/// interpolated at a traced hit ([`PixelSurface::of_triangle`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PixelSurface {
-    pub uv: Vec2,
-    pub uv1: Vec2,
-    pub color: Vec3,
-    pub normal: Vec3,
-}
-
-impl PixelSurface {
-    /// A point with `TEXCOORD_0` `uv` and no other attribute (what a light field without them
-    /// shades with).
-    pub fn plain(uv: Vec2) -> Self {
-        PixelSurface {
-            uv,
-            uv1: Vec2::ZERO,
-            color: Vec3::ONE,
-            normal: Vec3::ZERO,
-        }
-    }
-
-    /// From pass 4's uv and pass 4b's two attribute texels (`[n.xyz, t.x]`, `[c.rgb, t.y]`;
-    /// empty slices: no attributes).
-    pub fn from_targets(uv: [f32; 2], a: Option<[f32; 4]>, b: Option<[f32; 4]>) -> Self {
-        let mut s = PixelSurface::plain(Vec2::from(uv));
-        if let (Some(a), Some(b)) = (a, b) {
-            s.normal = Vec3::new(a[0], a[1], a[2]);
-            s.uv1 = Vec2::new(a[3], b[3]);
-            s.color = Vec3::new(b[0], b[1], b[2]);
-        }
-        s
-    }
-
-    /// At barycentrics `(b1, b2)` of triangle `tri` of `lf`, as pass 5 interpolates a traced hit
-    /// (`chain_surface`): `attrs` is [`super::upload::corner_attributes`]`(lf)` (empty without).
-    pub fn of_triangle(lf: &LightField, attrs: &[[f32; 4]], tri: usize, b1: f32, b2: f32) -> Self {
-        let b0 = 1.0 - b1 - b2;
-        let uv = lf.shading.uvs[tri].map(Vec2::from);
-        let mut s = PixelSurface::plain(uv[0] * b0 + uv[1] * b1 + uv[2] * b2);
-        if !attrs.is_empty() {
-            let k = 6 * tri;
-            let at = |j: usize| glam::Vec4::from(attrs[k + j]);
-            let a = at(0) * b0 + at(2) * b1 + at(4) * b2;
-            let b = at(1) * b0 + at(3) * b1 + at(5) * b2;
-            s.normal = a.truncate();
-            s.uv1 = Vec2::new(a.w, b.w);
-            s.color = b.truncate();
-        }
-        s
-    }
-
-    /// The texture coordinates of set 1 when `set1`, else set 0.
-    pub fn tex_uv(&self, set1: bool) -> Vec2 {
-        if set1 { self.uv1 } else { self.uv }
-    }
-}
-
-/// What the CPU mirrors of pass 5 read besides the light field: its texture offsets
-/// (`Shading::texture_offsets`), its faces' attribute flags
-/// ([`super::upload::attribute_flags`]) and its per-corner attributes
-/// ([`super::upload::corner_attributes`], empty without).
-pub struct SurfaceLookup {
-    pub offsets: Vec<u64>,
-    pub flags: Vec<u32>,
-    pub attributes: Vec<[f32; 4]>,
-}
-
-impl SurfaceLookup {
-    pub fn new(lf: &LightField) -> Self {
-        SurfaceLookup {
-            offsets: lf.shading.texture_offsets(),
-            flags: super::upload::attribute_flags(lf),
-            attributes: if super::upload::has_attributes(lf) {
-                super::upload::corner_attributes(lf)
-            } else {
-                Vec::new()
-            },
-        }
-    }
-}
-
 /// CPU counterpart of pass 5 without the specular tiles: `Le(uv) [side 0] + ρ_d(uv)/π · E` of
 /// face `face` at plane point `p` with the interpolated attributes `s` on `side`, in f32 in the
 /// shader's order of operations: the base-colour texture (read with the set its material
-/// names) and then the vertex colour (on faces with [`FLAG_COLORS`]) multiply ρ_d.
+/// names) and then the vertex colour (on faces with [`FLAG_COLORS`]) multiply ρ_d; on faces
+/// with smooth triangles the interpolated irradiance correction is added to the atlas's
+/// ([`super::attributes`]).
 pub fn surface_radiance(
     lf: &LightField,
     lookup: &SurfaceLookup,
@@ -720,7 +639,11 @@ pub fn surface_radiance(
         if flags & FLAG_COLORS != 0 {
             rho *= s.color;
         }
-        l = rho * atlas_irradiance(f, &lf.irradiance, side, p);
+        let mut e = atlas_irradiance(f, &lf.irradiance, side, p);
+        if flags & FLAG_SMOOTH != 0 {
+            e += s.irradiance;
+        }
+        l = rho * e;
     }
     let le = Vec3::from(m.emission);
     if side == 0 && le.max_element() > 0.0 {
@@ -728,23 +651,6 @@ pub fn surface_radiance(
         l += le * sh.sample(m.emissive_texture, uv, &lookup.offsets);
     }
     l
-}
-
-/// The unit shading normal pass 5 reflects about at a point of face `face` with attributes `s`,
-/// turned to `side` (the unit geometric normal of the side the ray comes from), and whether it
-/// is the point's own (`shading_normal` of the shader): the face's normal on faces without
-/// [`FLAG_SMOOTH`] and on their flat triangles (zero interpolated normal).
-pub fn shading_normal(
-    lookup: &SurfaceLookup,
-    face: u32,
-    s: &PixelSurface,
-    side: Vec3,
-) -> (Vec3, bool) {
-    if lookup.flags[face as usize] & FLAG_SMOOTH == 0 || s.normal.dot(s.normal) <= 0.0 {
-        return (side, false);
-    }
-    let m = s.normal.normalize();
-    (if m.dot(side) < 0.0 { -m } else { m }, true)
 }
 
 /// The side of `face` that an eye at `eye` sees at `p`: 0 (front) when the eye is on the

@@ -278,10 +278,11 @@ fn trace_chain(
         let q = p0 * b0 + p1 * b1 + p2 * b2;
         let f = &lf.faces[face as usize];
         let n = f.normal();
-        let s = PixelSurface::of_triangle(lf, &lookup.attributes, t.prim as usize, b1, b2);
+        let hside = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
+        let s = PixelSurface::of_triangle(lf, &lookup.attributes, t.prim as usize, b1, b2, hside);
         match f.kind {
             FACE_DIFFUSE => {
-                let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
+                let side = hside;
                 let l = surface_radiance(lf, lookup, face, side, q, &s);
                 return (throughput * l, false);
             }

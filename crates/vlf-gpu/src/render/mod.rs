@@ -56,6 +56,7 @@
 //! the pass's own resources, group 2 = the mirror tiles (pass 5, `common/mirror_tiles.wgsl`).
 //! Everything is labelled `"PassName::thing"`.
 
+pub mod attributes;
 pub mod barycentrics;
 pub mod camera;
 pub mod direction_ids;
@@ -183,9 +184,10 @@ pub struct FrameData {
     pub position: Vec<[f32; 4]>,
     /// Pass 4's uv (meaningful only where a face is seen).
     pub uv: Vec<[f32; 2]>,
-    /// Pass 4b's attribute targets, `[normal xyz, TEXCOORD_1 u]` and `[colour rgb,
-    /// TEXCOORD_1 v]` (meaningful only where a face is seen; empty without attributes).
-    pub attributes: [Vec<[f32; 4]>; 2],
+    /// Pass 4b's attribute targets, `[normal xyz, TEXCOORD_1 u]` and the packed words
+    /// (`targets::ATTRIBUTE_WORDS_FORMAT`) (meaningful only where a face is seen; empty without
+    /// attributes).
+    pub attributes: (Vec<[f32; 4]>, Vec<[u32; 4]>),
     pub radiance: Vec<[f32; 4]>,
 }
 
@@ -195,8 +197,8 @@ impl FrameData {
     pub fn surface(&self, i: usize) -> final_radiance::PixelSurface {
         final_radiance::PixelSurface::from_targets(
             self.uv[i],
-            self.attributes[0].get(i).copied(),
-            self.attributes[1].get(i).copied(),
+            self.attributes.0.get(i).copied(),
+            self.attributes.1.get(i).copied(),
         )
     }
 }
@@ -595,12 +597,12 @@ impl Renderer {
             position: targets::read_texture(d, q, &t.position, 16)?,
             uv: targets::read_texture(d, q, &t.uv, 8)?,
             attributes: if self.attributes.is_some() {
-                [
+                (
                     targets::read_texture(d, q, &t.attributes[0], 16)?,
                     targets::read_texture(d, q, &t.attributes[1], 16)?,
-                ]
+                )
             } else {
-                [Vec::new(), Vec::new()]
+                (Vec::new(), Vec::new())
             },
             radiance: targets::read_texture(d, q, &t.radiance, 16)?,
         })

@@ -6,7 +6,8 @@
 //! cleared nor read where no face is seen, and pass 5 reads it for textured faces only.
 
 use super::targets::{
-    ATTRIBUTES_FORMAT, DEPTH_STENCIL_FORMAT, POSITION_FORMAT, Targets, UV_FORMAT,
+    ATTRIBUTE_WORDS_FORMAT, ATTRIBUTES_FORMAT, DEPTH_STENCIL_FORMAT, POSITION_FORMAT, Targets,
+    UV_FORMAT,
 };
 use super::upload::GpuLightField;
 use super::{geometry_pass_layout, geometry_pipeline};
@@ -102,7 +103,7 @@ impl PositionPass {
 }
 
 /// Pass 4b: the shading normal, vertex colour and `TEXCOORD_1` of the visible surface, for light
-/// fields with per-corner attributes ([`super::upload::has_attributes`]), into the attribute
+/// fields with per-corner attributes ([`super::attributes::has_attributes`]), into the attribute
 /// targets (shader `shaders/render_attributes.wgsl`). A pass of its own rather than two more
 /// targets of pass 4: the four would exceed the 32 bytes per pixel of colour attachments that
 /// every device allows.
@@ -134,7 +135,7 @@ impl AttributesPass {
             &shaders::RENDER_ATTRIBUTES,
             globals_layout,
             &pass_layout,
-            &[ATTRIBUTES_FORMAT, ATTRIBUTES_FORMAT],
+            &[ATTRIBUTES_FORMAT, ATTRIBUTE_WORDS_FORMAT],
             depth,
         );
         Self {

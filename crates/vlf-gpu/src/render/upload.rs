@@ -31,12 +31,11 @@
 //!   other flags) and 7 only for non-diffuse faces: the reflectance for the visible one and
 //!   for mirrors along a traced chain, α for the visible one ([`super::mirror_trace`]).
 //! * Per-corner attributes (light fields with shading normals, vertex colours or a texture read
-//!   with `TEXCOORD_1`; [`has_attributes`]): a storage buffer of two `vec4` per triangle
+//!   with `TEXCOORD_1`; [`super::attributes`]): a storage buffer of two `vec4` per triangle
 //!   corner, `[n.xyz, t.x]`, `[c.rgb, t.y]` (shading normal, zero on flat triangles; vertex
-//!   colour, white without; `TEXCOORD_1`), six per triangle in the light field's triangle order
-//!   ([`corner_attributes`]); the uploaded triangles name their index there in their first
-//!   padding word. Read by vertex shaders and, along mirror chains, by pass 5. Face flags say
-//!   which faces need them ([`attribute_flags`]).
+//!   colour, white without; `TEXCOORD_1`), six per triangle in the light field's triangle order;
+//!   the uploaded triangles name their index there in their first padding word. Read by
+//!   vertex shaders and, along mirror chains, by pass 5. Face flags say which faces need them.
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -58,6 +57,7 @@ use vlf_core::lightfield::{
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
+use super::attributes::{ATTRIBUTE_ENTRIES, attribute_flags, corner_attributes, has_attributes};
 use super::targets::{MIRROR_STENCIL, TEXTURED_STENCIL};
 use super::texture_entry;
 
@@ -74,15 +74,8 @@ pub const FLAG_DIFFUSE: u32 = 0x100;
 pub const FLAG_BASE_TEXTURE: u32 = 0x200;
 pub const FLAG_EMISSIVE: u32 = 0x400;
 pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
-/// Per-corner attribute flags of a face ([`attribute_flags`]): some of its triangles have
-/// shading normals; some have vertex colours; its material's base-colour texture reads
-/// `TEXCOORD_1`; its emissive texture does.
-pub const FLAG_SMOOTH: u32 = 0x1000;
-pub const FLAG_COLORS: u32 = 0x2000;
-pub const FLAG_BASE_UV1: u32 = 0x4000;
-pub const FLAG_EMISSIVE_UV1: u32 = 0x8000;
-/// `vec4` entries of [`corner_attributes`] per triangle.
-pub const ATTRIBUTE_ENTRIES: usize = 6;
+/// The per-corner attribute flags of a face, above these (`super::attributes`).
+pub use super::attributes::{FLAG_BASE_UV1, FLAG_COLORS, FLAG_EMISSIVE_UV1, FLAG_SMOOTH};
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
@@ -281,64 +274,8 @@ pub fn is_textured(m: &SurfaceMaterial) -> bool {
     face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
 }
 
-/// Whether pass 5 needs per-corner attributes for `lf` (see the module docs).
-pub fn has_attributes(lf: &LightField) -> bool {
-    let sh = &lf.shading;
-    sh.normals.is_some()
-        || sh.colors.is_some()
-        || sh.materials.iter().any(SurfaceMaterial::uses_texcoord1)
-}
-
-/// The per-corner attribute flags of every face of `lf` ([`FLAG_SMOOTH`], [`FLAG_COLORS`],
-/// [`FLAG_BASE_UV1`], [`FLAG_EMISSIVE_UV1`]).
-pub fn attribute_flags(lf: &LightField) -> Vec<u32> {
-    let sh = &lf.shading;
-    let mut flags: Vec<u32> = lf
-        .faces
-        .iter()
-        .map(|f| {
-            let m = &sh.materials[f.material as usize];
-            let mut fl = 0;
-            if m.base_color_texture != NO_TEXTURE && m.base_color_texcoord == 1 {
-                fl |= FLAG_BASE_UV1;
-            }
-            if m.emissive_texture != NO_TEXTURE && m.emissive_texcoord == 1 {
-                fl |= FLAG_EMISSIVE_UV1;
-            }
-            fl
-        })
-        .collect();
-    for (i, t) in lf.triangles.iter().enumerate() {
-        let fl = &mut flags[t.face as usize];
-        if sh.normals.as_ref().is_some_and(|n| n[i] != [[0.0; 3]; 3]) {
-            *fl |= FLAG_SMOOTH;
-        }
-        if sh.colors.as_ref().is_some_and(|c| c[i] != [[1.0; 3]; 3]) {
-            *fl |= FLAG_COLORS;
-        }
-    }
-    flags
-}
-
-/// The per-corner attributes of `lf`'s triangles (see the module docs): `[n.xyz, t.x]`,
-/// `[c.rgb, t.y]` per corner, in triangle order.
-pub fn corner_attributes(lf: &LightField) -> Vec<[f32; 4]> {
-    let sh = &lf.shading;
-    let mut out = Vec::with_capacity(lf.triangles.len() * ATTRIBUTE_ENTRIES);
-    for i in 0..lf.triangles.len() {
-        let n = sh.normals.as_ref().map_or([[0.0; 3]; 3], |n| n[i]);
-        let c = sh.colors.as_ref().map_or([[1.0; 3]; 3], |c| c[i]);
-        let t = sh.uvs1.as_ref().map_or([[0.0; 2]; 3], |t| t[i]);
-        for k in 0..3 {
-            out.push([n[k][0], n[k][1], n[k][2], t[k][0]]);
-            out.push([c[k][0], c[k][1], c[k][2], t[k][1]]);
-        }
-    }
-    out
-}
-
 /// The face record texels of `f` with its material `m` and attribute flags `attrs` (see the
-/// module docs and [`attribute_flags`]).
+/// module docs and [`super::attributes::attribute_flags`]).
 pub fn face_record(
     f: &BakeFace,
     m: &SurfaceMaterial,
