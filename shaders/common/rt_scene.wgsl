@@ -18,7 +18,8 @@ struct RtSceneInfo {
     tex_base: u32,
     // Probability of sampling an emitter rather than a delta light.
     p_emitters: f32,
-    _pad: u32,
+    // Where the per-triangle attributes (shading normals, vertex colours, TEXCOORD_1) start.
+    attr_base: u32,
 }
 
 // Group 1 bindings 0, 1 (nodes, triangles): see common/bvh.wgsl.
@@ -36,6 +37,9 @@ struct Material {
     // Weight of the baker's Lambertian lobe, a folded rough metal included
     // (vlf_core::bake::glossy::BakedMaterial::diffuse_weight).
     bake_diffuse: f32,
+    // The texture coordinate set of the base-colour texture (bit 0) and of the emissive one
+    // (bit 1): set 1 where the bit is set.
+    texcoords: u32,
 }
 
 fn material(index: u32) -> Material {
@@ -43,14 +47,77 @@ fn material(index: u32) -> Material {
     let a = blob[o];
     let b = blob[o + 1u];
     let c = blob[o + 2u];
-    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y, c.z);
+    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y, c.z,
+        bitcast<u32>(c.w));
 }
 
-// Texture coordinates of leaf-order triangle `tri` at barycentrics (b1, b2).
+// Texture coordinates (TEXCOORD_0) of leaf-order triangle `tri` at barycentrics (b1, b2).
 fn tri_uv(tri: u32, b1: f32, b2: f32) -> vec2<f32> {
     let a = blob[2u * tri];
     let b = blob[2u * tri + 1u];
     return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
+}
+
+// Attribute flags (vlf_gpu::raytrace::scene::ATTR_*).
+const ATTR_SMOOTH: u32 = 1u;
+const ATTR_COLORS: u32 = 2u;
+
+// The first attribute entry of leaf-order triangle `tri`, or NONE.
+fn tri_attributes(tri: u32) -> u32 {
+    let k = bitcast<u32>(blob[2u * tri + 1u].w);
+    if k == NONE {
+        return NONE;
+    }
+    return scene_info.attr_base + 8u * k;
+}
+
+// Texture coordinates of set `set` (0 or 1) of leaf-order triangle `tri` at (b1, b2)
+// (vlf_core::scene::Triangle::uv_at; a missing TEXCOORD_1 reads 0).
+fn tri_uv_set(tri: u32, uv_set: u32, b1: f32, b2: f32) -> vec2<f32> {
+    if uv_set == 0u {
+        return tri_uv(tri, b1, b2);
+    }
+    let o = tri_attributes(tri);
+    if o == NONE {
+        return vec2<f32>(0.0);
+    }
+    let a = blob[o + 6u];
+    let b = blob[o + 7u];
+    return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
+}
+
+// The vertex colour of leaf-order triangle `tri` at (b1, b2): 1 without
+// (vlf_core::scene::Triangle::color_at).
+fn tri_color(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
+    let o = tri_attributes(tri);
+    if o == NONE || (bitcast<u32>(blob[o].w) & ATTR_COLORS) == 0u {
+        return vec3<f32>(1.0);
+    }
+    return blob[o + 3u].xyz * (1.0 - b1 - b2) + blob[o + 4u].xyz * b1 + blob[o + 5u].xyz * b2;
+}
+
+// The unit shading normal of leaf-order triangle `tri` at (b1, b2) on the side whose unit
+// geometric normal is `n`; `n` itself for a flat triangle
+// (vlf_core::pathtrace::PreparedScene::shading_normal).
+fn tri_shading_normal(tri: u32, b1: f32, b2: f32, n: vec3<f32>) -> vec3<f32> {
+    let o = tri_attributes(tri);
+    if o == NONE || (bitcast<u32>(blob[o].w) & ATTR_SMOOTH) == 0u {
+        return n;
+    }
+    let s = blob[o].xyz * (1.0 - b1 - b2) + blob[o + 1u].xyz * b1 + blob[o + 2u].xyz * b2;
+    let len = length(s);
+    if !(len > 0.0) {
+        return n;
+    }
+    let m = s / len;
+    return select(m, -m, dot(m, n) < 0.0);
+}
+
+// The base colour C (factor × texture × vertex colour) of leaf-order triangle `tri` of
+// material `m` at (b1, b2) (vlf_core::pathtrace::PreparedScene::base_color).
+fn base_color_at(tri: u32, m: Material, b1: f32, b2: f32) -> vec3<f32> {
+    let uv = tri_uv_set(tri, m.texcoords & 1u, b1, b2);
+    return m.base_color * sample_texture(m.base_texture, uv) * tri_color(tri, b1, b2);
 }
 
 // The planar face (vlf_core::scene::Triangle::face) of leaf-order triangle `tri`.
@@ -214,5 +281,6 @@ fn emitter_pdf(light: u32, dist: f32, cos_light: f32) -> f32 {
 // Emitted radiance of leaf-order triangle `tri` at barycentrics (b1, b2) (front face).
 fn emission_at(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
     let m = material(triangles[tri].material);
-    return m.emission * sample_texture(m.emissive_texture, tri_uv(tri, b1, b2));
+    let uv = tri_uv_set(tri, (m.texcoords >> 1u) & 1u, b1, b2);
+    return m.emission * sample_texture(m.emissive_texture, uv);
 }

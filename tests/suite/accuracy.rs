@@ -51,7 +51,12 @@ fn stills_and_reference(
     sky: Vec3,
 ) -> Option<(Vec<Image>, Image)> {
     let ctx = gpu()?;
-    let scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
+    let mut scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
+    // The references shade every face flat except lamp-room's (`reference/README.md`): what
+    // `vlf-bake bake --flat-normals` bakes.
+    if !scene.source.to_string_lossy().contains("lamp-room") {
+        scene.flatten_normals();
+    }
     // What `vlf-bake bake` does by default: the auto preset refined from the scene.
     let mut params = auto::choose(&scene, Quality::Auto, final_gather).params;
     params.sky = sky;

@@ -13,4 +13,5 @@ mod render;
 mod render_encoding;
 mod render_mirrors;
 mod render_textures;
+mod shading_gpu;
 mod stability_gpu;

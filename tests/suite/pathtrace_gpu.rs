@@ -8,8 +8,11 @@ use vlf_core::scene::{self, Scene};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
 use vlf_tests::{gpu, shared_dir};
 
+/// A shared Cornell box, shaded flat as its reference is (`reference/README.md`).
 fn cornell(file: &str) -> Scene {
-    scene::load(&shared_dir().join("scenes").join(file)).unwrap()
+    let mut s = scene::load(&shared_dir().join("scenes").join(file)).unwrap();
+    s.flatten_normals();
+    s
 }
 
 /// Random rays from random points inside the scene's bounds in random directions, plus rays

@@ -276,7 +276,10 @@ pub fn bake_scene(
     progress: &mut dyn FnMut(u64, u64, &str),
 ) -> anyhow::Result<BakeReport> {
     let t = Instant::now();
-    let scene = vlf_core::scene::load(scene_path)?;
+    let mut scene = vlf_core::scene::load(scene_path)?;
+    if args.flat_normals {
+        scene.flatten_normals();
+    }
     let (params, auto_reasons) = resolve_params(args, &scene)?;
     for r in &auto_reasons {
         log::info!("{}: {r}", scene_path.display());

@@ -173,6 +173,11 @@ pub struct BakeArgs {
     /// otherwise be refused as unlit). `batch` defaults it to 1,1,1; `bake` has no default.
     #[arg(long, value_name = "R,G,B")]
     pub sky_if_unlit: Option<Rgb>,
+    /// Ignore the meshes' NORMALs: every face shades flat (the gather gathers about the
+    /// faces' own normals, mirrors reflect about them), as the shared references other than
+    /// lamp-room are rendered. By default NORMALs are shading normals.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Memory budget of one bake, e.g. `2G`, `512M` (K, M, G, T are powers of 1024). The bake's
     /// memory is planned before propagating (print it with -v); when the plan exceeds the
     /// budget, --resolution is halved (with a warning) until it fits, and the bake is refused
@@ -442,6 +447,10 @@ pub struct ReferenceArgs {
     /// Constant sky radiance `R,G,B` (or one value) seen by rays that leave the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Ignore the meshes' NORMALs and shade every face flat (the shared references other than
+    /// lamp-room are rendered so); by default NORMALs are shading normals.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Seed of the random streams (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
@@ -505,6 +514,9 @@ pub struct SweepArgs {
     /// Constant sky radiance `R,G,B` for the bakes, the path tracer and radiosity alike.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Ignore the meshes' NORMALs: bakes and the path tracer shade every face flat.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Path tracer curve: 1, 2, 4, … up to this many samples per pixel (0: no path tracer).
     #[arg(long, default_value_t = 256)]
     pub spp_max: u32,

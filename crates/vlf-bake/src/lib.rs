@@ -167,27 +167,32 @@ fn info(path: &Path, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What `vlf-bake inspect --json` prints: the scene's counts and how each material shades.
+#[derive(serde::Serialize)]
+struct Inspection {
+    #[serde(flatten)]
+    summary: vlf_core::scene::SceneSummary,
+    shading: Vec<vlf_core::scene::MaterialShading>,
+    lights: Vec<LightReport>,
+}
+
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
-    let summary = scene.summary();
-    let lights: Vec<LightReport> = scene.lights.iter().map(LightReport::of).collect();
+    let report = Inspection {
+        summary: scene.summary(),
+        shading: scene.material_shading(),
+        lights: scene.lights.iter().map(LightReport::of).collect(),
+    };
     if json {
-        #[derive(serde::Serialize)]
-        struct Inspect<'a> {
-            #[serde(flatten)]
-            summary: &'a vlf_core::scene::SceneSummary,
-            lights: &'a [LightReport],
-        }
-        let out = Inspect {
-            summary: &summary,
-            lights: &lights,
-        };
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
     println!("scene {}", path.display());
-    println!("{}", serde_json::to_string_pretty(&summary)?);
-    for l in &lights {
+    println!("{}", serde_json::to_string_pretty(&report.summary)?);
+    for (i, m) in report.shading.iter().enumerate() {
+        println!("material {i} {:?}: {}", m.name, describe_shading(m));
+    }
+    for l in &report.lights {
         println!("{l}");
     }
     for w in &scene.warnings {
@@ -255,6 +260,35 @@ impl std::fmt::Display for LightReport {
             None => write!(f, ", no range"),
         }
     }
+}
+
+/// One line on how a material shades: smooth or flat, vertex colours, texture coordinate sets,
+/// an ignored normal map.
+fn describe_shading(m: &vlf_core::scene::MaterialShading) -> String {
+    let mut parts = vec![match (m.triangles, m.smooth_triangles) {
+        (0, _) => "no triangles".to_string(),
+        (_, 0) => format!("{} triangles, flat", m.triangles),
+        (t, s) if s == t => format!("{t} triangles, smooth (NORMAL shading normals)"),
+        (t, s) => format!("{t} triangles, {s} smooth (NORMAL shading normals), the rest flat"),
+    }];
+    if m.colored_triangles > 0 {
+        parts.push(format!(
+            "vertex colours (COLOR_0) on {} triangles",
+            m.colored_triangles
+        ));
+    }
+    for (slot, set) in [
+        ("base colour", m.base_color_texcoord),
+        ("emissive", m.emissive_texcoord),
+    ] {
+        if let Some(set) = set {
+            parts.push(format!("{slot} texture on TEXCOORD_{set}"));
+        }
+    }
+    if m.normal_map_ignored {
+        parts.push("normalTexture ignored (normal maps are not modelled)".into());
+    }
+    parts.join("; ")
 }
 
 /// The compute device `--device` chose, with the reason (for `--json` and the summary line).

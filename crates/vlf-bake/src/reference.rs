@@ -64,7 +64,10 @@ pub fn reference_command(
     quiet: bool,
 ) -> anyhow::Result<()> {
     let t_total = Instant::now();
-    let scene = vlf_core::scene::load(&args.scene)?;
+    let mut scene = vlf_core::scene::load(&args.scene)?;
+    if args.flat_normals {
+        scene.flatten_normals();
+    }
     let sky = args.sky.map_or(Vec3::ZERO, |s| Vec3::from(s.0));
     vlf_core::scene::check_lighting(&scene, Some(sky))?;
     let Size(width, height) = args.size;

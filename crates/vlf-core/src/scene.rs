@@ -10,7 +10,22 @@
 //! - **Front face** = counter-clockwise in world space. A node whose world transform
 //!   has a negative determinant reverses winding; the importer swaps two corners of
 //!   such triangles so that every [`Triangle`] and [`Face`] here is CCW-front in
-//!   world space. Vertex normals are ignored: faces are planar and flat shaded.
+//!   world space.
+//! - **Shading normals**: a primitive's `NORMAL`s are shading normals ([`Triangle::normals`]),
+//!   transformed with the inverse transpose of the node's world matrix and renormalised. Faces
+//!   stay planar (the light field is stored on them); only shading reads the interpolated
+//!   normal. A triangle whose three normals agree with its geometric normal within 0.08°
+//!   ([`FACE_COS_TOLERANCE`]) is stored flat (`None`), so flat meshes exported with normals
+//!   shade exactly as without them. Normals that are not finite, zero, or on the back of their
+//!   triangle (dot ≤ 0 with its geometric normal) are replaced by the geometric normal, with
+//!   one warning per primitive instance giving their number. [`Scene::flatten_normals`] drops
+//!   them all (`--flat-normals`).
+//! - **Vertex colours**: `COLOR_0` (VEC3 or VEC4, float or normalised unsigned byte/short,
+//!   linear) multiplies the base colour factor and texture ([`Triangle::colors`]; alpha is
+//!   not read). Non-finite components read 1 and values are clamped to [0, 1], with a warning.
+//! - **Texture coordinates**: `TEXCOORD_0` and `TEXCOORD_1` are imported; each texture slot
+//!   reads the set its `textureInfo.texCoord` names ([`TexRef::texcoord`]; sets above 1 are
+//!   read as set 0 with a warning).
 //! - **Materials**: see [`MaterialKind`] for the metallic/roughness mapping.
 //!   `emission = emissiveFactor × KHR_materials_emissive_strength` (× the emissive
 //!   texture) is radiance, emitted from the front face only.
@@ -45,6 +60,7 @@ mod builder;
 mod error;
 mod faces;
 mod gltf_import;
+mod lights;
 mod texture;
 mod uri;
 
@@ -56,6 +72,7 @@ use serde::{Deserialize, Serialize};
 
 pub use builder::SceneBuilder;
 pub use error::SceneError;
+pub use lights::{PunctualKind, PunctualLight, Sun};
 pub use texture::{FilterMode, Texture, WrapMode};
 
 /// Largest number of triangles [`load`] accepts (after instancing); more is
@@ -81,9 +98,64 @@ pub struct Triangle {
     pub material: u32,
     /// Index into [`Scene::faces`] of the planar polygon holding this triangle.
     pub face: u32,
+    /// Unit shading normals at the corners (world space, each on the front side of the
+    /// triangle: dot > 0 with [`Triangle::normal`]); `None` for a flat triangle.
+    #[serde(default)]
+    pub normals: Option<[Vec3; 3]>,
+    /// `COLOR_0` at the corners (linear RGB in [0, 1]); `None` without vertex colours.
+    #[serde(default)]
+    pub colors: Option<[Vec3; 3]>,
+    /// `TEXCOORD_1` at the corners; `None` when the primitive has none (reads 0).
+    #[serde(default)]
+    pub uv1: Option<[Vec2; 3]>,
+}
+
+/// A triangle's corners beyond their positions: what [`SceneBuilder::triangle_with`] takes
+/// (the fields of [`Triangle`] of the same names).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Corners {
+    pub uv: [Vec2; 3],
+    pub uv1: Option<[Vec2; 3]>,
+    pub normals: Option<[Vec3; 3]>,
+    pub colors: Option<[Vec3; 3]>,
+}
+
+/// Barycentric blend `a·(1 − b1 − b2) + b·b1 + c·b2` of three corner values.
+pub fn blend<T>(v: &[T; 3], b1: f32, b2: f32) -> T
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    v[0] * (1.0 - b1 - b2) + v[1] * b1 + v[2] * b2
 }
 
 impl Triangle {
+    /// The corner texture coordinates of set `set` (0 or 1; a missing `TEXCOORD_1` reads 0).
+    pub fn uv_set(&self, set: u32) -> [Vec2; 3] {
+        if set == 1 {
+            self.uv1.unwrap_or([Vec2::ZERO; 3])
+        } else {
+            self.uv
+        }
+    }
+
+    /// Texture coordinates of set `set` at barycentrics `(b1, b2)` (weights of corners 1, 2).
+    pub fn uv_at(&self, set: u32, b1: f32, b2: f32) -> Vec2 {
+        blend(&self.uv_set(set), b1, b2)
+    }
+
+    /// The vertex colour at barycentrics `(b1, b2)`; 1 without vertex colours.
+    pub fn color_at(&self, b1: f32, b2: f32) -> Vec3 {
+        self.colors.map_or(Vec3::ONE, |c| blend(&c, b1, b2))
+    }
+
+    /// The unit shading normal of the front side at barycentrics `(b1, b2)`: the corner
+    /// normals interpolated and renormalised; `None` for a flat triangle (its geometric
+    /// normal shades it).
+    pub fn shading_normal_at(&self, b1: f32, b2: f32) -> Option<Vec3> {
+        let n = blend(&self.normals?, b1, b2).normalize_or_zero();
+        (n != Vec3::ZERO).then_some(n)
+    }
+
     /// Unnormalised geometric normal `(p1 − p0) × (p2 − p0)`; its length is twice the area.
     pub fn cross(&self) -> Vec3 {
         (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
@@ -160,8 +232,8 @@ pub struct Face {
 pub struct TexRef {
     /// Index into [`Scene::textures`] (not the glTF texture index).
     pub index: u32,
-    /// The glTF `texCoord` set. Only `TEXCOORD_0` is imported
-    /// ([`Triangle::uv`]); other sets produce a warning and are sampled with set 0.
+    /// The texture coordinate set the texture is read with: 0 ([`Triangle::uv`]) or 1
+    /// ([`Triangle::uv1`]); the importer reads larger glTF `texCoord`s as 0 (with a warning).
     pub texcoord: u32,
 }
 
@@ -326,77 +398,6 @@ impl Camera {
     }
 }
 
-/// A directional light (`KHR_lights_punctual` "directional").
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Sun {
-    /// Light name (or node name).
-    pub name: Option<String>,
-    /// Unit direction in which the light travels (the node's local −Z in world space).
-    pub direction: Vec3,
-    /// Irradiance at normal incidence, `color × intensity` (radiometric reading).
-    pub irradiance: Vec3,
-}
-
-/// The kind of a [`PunctualLight`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum PunctualKind {
-    /// Light in every direction.
-    Point,
-    /// A cone about the light's direction: full intensity within `inner` radians of the axis,
-    /// none beyond `outer`, the extension's smooth falloff between ([`PunctualLight::cone`]).
-    Spot {
-        /// `innerConeAngle` (radians), `0 ≤ inner < outer`.
-        inner: f32,
-        /// `outerConeAngle` (radians), `≤ π/2`.
-        outer: f32,
-    },
-}
-
-/// A point or spot light (`KHR_lights_punctual` "point" / "spot"), world space.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PunctualLight {
-    /// Light name (or node name).
-    pub name: Option<String>,
-    pub kind: PunctualKind,
-    /// Position (the node's world translation).
-    pub position: Vec3,
-    /// Unit direction the light points in (the node's local −Z in world space); a spot's axis.
-    pub direction: Vec3,
-    /// Radiant intensity `color × intensity` (W/sr, radiometric reading): irradiance
-    /// `I·cos θ/d²` at distance d.
-    pub intensity: Vec3,
-    /// `range` (world units), when the file sets one.
-    pub range: Option<f32>,
-}
-
-impl PunctualLight {
-    /// `(scale, offset)` of the spot's angular falloff, the extension's recommended
-    /// `t = clamp(cos α · scale + offset, 0, 1)`, attenuation `t²`, with
-    /// `scale = 1 / max(0.001, cos inner − cos outer)` and `offset = −cos outer · scale`;
-    /// `(0, 1)` for a point light (attenuation 1 everywhere).
-    pub fn cone(&self) -> (f32, f32) {
-        match self.kind {
-            PunctualKind::Point => (0.0, 1.0),
-            PunctualKind::Spot { inner, outer } => {
-                let scale = 1.0 / (inner.cos() - outer.cos()).max(0.001);
-                (scale, -outer.cos() * scale)
-            }
-        }
-    }
-
-    /// The share of the intensity that reaches distance `d` along a ray at cosine `cos_axis`
-    /// from the axis: the spot's cone falloff times the range window
-    /// `clamp(1 − (d/range)⁴, 0, 1)` (1 without a range).
-    pub fn attenuation(&self, cos_axis: f32, d: f32) -> f32 {
-        let (scale, offset) = self.cone();
-        let t = (cos_axis * scale + offset).clamp(0.0, 1.0);
-        let window = self
-            .range
-            .map_or(1.0, |r| (1.0 - (d / r).powi(4)).clamp(0.0, 1.0));
-        t * t * window
-    }
-}
-
 /// Axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Aabb {
@@ -545,6 +546,10 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// The file this scene was read from.
     pub source: PathBuf,
+    /// Materials (indices) whose glTF `normalTexture` was ignored: normal maps would need
+    /// irradiance per direction, which the atlas does not store.
+    #[serde(default)]
+    pub ignored_normal_maps: Vec<u32>,
 }
 
 /// Counts describing a [`Scene`] (for `vlf-bake info`, `--json`).
@@ -585,6 +590,59 @@ pub struct SceneSummary {
 }
 
 impl Scene {
+    /// Drops every shading normal: all faces shade flat (`--flat-normals`; the shared
+    /// references other than lamp-room are rendered so).
+    pub fn flatten_normals(&mut self) {
+        for t in &mut self.triangles {
+            t.normals = None;
+        }
+    }
+
+    /// Whether some triangle has shading normals.
+    pub fn has_smooth_normals(&self) -> bool {
+        self.triangles.iter().any(|t| t.normals.is_some())
+    }
+
+    /// Whether some triangle has vertex colours.
+    pub fn has_vertex_colors(&self) -> bool {
+        self.triangles.iter().any(|t| t.colors.is_some())
+    }
+
+    /// Whether some material reads a texture with `TEXCOORD_1`.
+    pub fn uses_texcoord1(&self) -> bool {
+        self.materials.iter().any(|m| {
+            [m.base_color_texture, m.emissive_texture]
+                .iter()
+                .flatten()
+                .any(|t| t.texcoord == 1)
+        })
+    }
+
+    /// Per material: how its triangles shade (`vlf-bake inspect`).
+    pub fn material_shading(&self) -> Vec<MaterialShading> {
+        let mut out: Vec<MaterialShading> = self
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MaterialShading {
+                name: m.name.clone(),
+                triangles: 0,
+                smooth_triangles: 0,
+                colored_triangles: 0,
+                base_color_texcoord: m.base_color_texture.map(|t| t.texcoord),
+                emissive_texcoord: m.emissive_texture.map(|t| t.texcoord),
+                normal_map_ignored: self.ignored_normal_maps.contains(&(i as u32)),
+            })
+            .collect();
+        for t in &self.triangles {
+            let m = &mut out[t.material as usize];
+            m.triangles += 1;
+            m.smooth_triangles += usize::from(t.normals.is_some());
+            m.colored_triangles += usize::from(t.colors.is_some());
+        }
+        out
+    }
+
     /// Triangles of face `face`.
     pub fn face_triangles(&self, face: usize) -> &[Triangle] {
         let r = &self.faces[face].triangles;
@@ -642,6 +700,23 @@ impl Scene {
             warnings: self.warnings.len(),
         }
     }
+}
+
+/// How one material's triangles shade: smooth or flat, vertex colours, texture coordinate sets
+/// (for `vlf-bake inspect`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MaterialShading {
+    pub name: String,
+    /// Triangles using the material, those with shading normals (smooth) and those with
+    /// vertex colours.
+    pub triangles: usize,
+    pub smooth_triangles: usize,
+    pub colored_triangles: usize,
+    /// The texture coordinate set of the base-colour and emissive textures, where there are.
+    pub base_color_texcoord: Option<u32>,
+    pub emissive_texcoord: Option<u32>,
+    /// Whether the material's `normalTexture` was ignored.
+    pub normal_map_ignored: bool,
 }
 
 /// Loads a glTF 2.0 file (`.gltf` with external or embedded buffers, or `.glb`).

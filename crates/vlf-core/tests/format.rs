@@ -86,6 +86,8 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: 0,
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
             SurfaceMaterial {
                 base_color: [1.0; 3],
@@ -94,6 +96,8 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0625,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
             SurfaceMaterial {
                 base_color: [0.5, 0.25, 0.125],
@@ -102,6 +106,8 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: 1,
                 specular_alpha: 0.2,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
         ],
         uvs: (0..triangles)
@@ -110,6 +116,9 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 [[uv(), uv()], [uv(), uv()], [uv(), uv()]]
             })
             .collect(),
+        uvs1: None,
+        normals: None,
+        colors: None,
         textures: vec![
             SurfaceTexture {
                 width: 5,

@@ -98,6 +98,8 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 base_color_texture: tex(0),
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
             SurfaceMaterial {
                 base_color: [0.3; 3],
@@ -106,6 +108,8 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: tex(1),
                 specular_alpha: 0.0,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
         ],
         uvs: (0..triangles)
@@ -117,6 +121,9 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 ]
             })
             .collect(),
+        uvs1: None,
+        normals: None,
+        colors: None,
         textures: sizes[..textures]
             .iter()
             .map(|&(width, height, wrap)| SurfaceTexture {

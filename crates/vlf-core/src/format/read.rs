@@ -171,6 +171,11 @@ fn known_section(name: &str, enc: RadianceEncoding) -> Option<(u32, usize)> {
             disk::KIND_GATHER_SAMPLING,
             size_of::<disk::FileGatherSampling>(),
         )),
+        disk::SECTION_UVS1 => Some((disk::KIND_UVS1, size_of::<FileUvs>())),
+        disk::SECTION_NORMALS | disk::SECTION_COLORS => {
+            Some((disk::KIND_CORNERS, size_of::<shading::FileCorners>()))
+        }
+        disk::SECTION_MATERIAL_TEXCOORDS => Some((disk::KIND_MATERIAL_TEXCOORDS, 4)),
         _ => None,
     }
 }
@@ -307,12 +312,31 @@ fn check_sections(
         ));
     }
     let count = |name| h.sections.iter().find(|s| s.name == name).map(|s| s.count);
-    if let (Some(uvs), Some(tris)) = (count(disk::SECTION_UVS), count(disk::SECTION_TRIANGLES))
-        && uvs != tris
+    let tris = count(disk::SECTION_TRIANGLES);
+    for (name, what) in [
+        (disk::SECTION_UVS, "uv triples"),
+        (disk::SECTION_UVS1, "uv triples"),
+        (disk::SECTION_NORMALS, "normal triples"),
+        (disk::SECTION_COLORS, "colour triples"),
+    ] {
+        if let (Some(n), Some(tris)) = (count(name), tris)
+            && n != tris
+        {
+            return Err(FormatError::Section {
+                section: name.into(),
+                reason: format!("{n} {what} for {tris} triangles"),
+                path: path.to_owned(),
+            });
+        }
+    }
+    if let (Some(n), Some(m)) = (
+        count(disk::SECTION_MATERIAL_TEXCOORDS),
+        count(disk::SECTION_MATERIALS),
+    ) && n != m
     {
         return Err(FormatError::Section {
-            section: disk::SECTION_UVS.into(),
-            reason: format!("{uvs} uv triples for {tris} triangles"),
+            section: disk::SECTION_MATERIAL_TEXCOORDS.into(),
+            reason: format!("{n} words for {m} materials"),
             path: path.to_owned(),
         });
     }
@@ -386,7 +410,23 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
     validate_header_content(&params, &to_vlf, &cameras).map_err(content)?;
     let triangles: Vec<BakeTriangle> = triangles.iter().map(Into::into).collect();
     let faces: Vec<BakeFace> = faces.iter().map(Into::into).collect();
-    let shading = shading::unpack(&materials, &uvs, &textures, texels).map_err(content)?;
+    let mut shading = shading::unpack(&materials, &uvs, &textures, texels).map_err(content)?;
+    let optional = |name: &str| h.sections.iter().find(|s| s.name == name);
+    let attrs = shading::Attributes {
+        uvs1: optional(disk::SECTION_UVS1)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        normals: optional(disk::SECTION_NORMALS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        colors: optional(disk::SECTION_COLORS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        texcoords: optional(disk::SECTION_MATERIAL_TEXCOORDS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+    };
+    shading::unpack_attributes(&mut shading, attrs).map_err(content)?;
     validate_geometry(
         &triangles,
         &faces,

@@ -14,6 +14,15 @@
 //! Sample points lie on the texel's own face where the texel is open ([`points`]), rays start
 //! a few ulps off the surface, and every texel has its own random stream, so the result does
 //! not depend on the thread count. This module is the specification of the GPU gather.
+//!
+//! **Shading normals.** Where a texel's triangle is smooth, every sample point carries the
+//! interpolated normal there ([`GatherPoint::n`]) and the irradiance is gathered about it:
+//! cosine rays and the cosine of light samples, suns and the guide's cells are taken about the
+//! shading normal. The rays still start on the geometric face (offset along its normal), and a
+//! direction below the geometric surface brings nothing: its ray would enter the solid the
+//! face bounds (the renderers that use shading normals meet the inside of the object there:
+//! dark for a closed one). A flat point's shading normal is the face's own normal, and then
+//! nothing changes.
 
 pub mod denoise;
 pub mod field;
@@ -35,7 +44,7 @@ use crate::scene::Scene;
 pub use field::Charts;
 use field::{Field, Tiles};
 use guide::{Cells, Guide};
-pub use points::{Openness, TexelPoints};
+pub use points::{GatherPoint, Openness, TexelPoints};
 use sampled::final_gather_sampled;
 pub use sampled::{Distribution, SamplingStats};
 
@@ -140,9 +149,9 @@ impl Gatherer<'_> {
         }
         let strata = shuffled_strata(rays, &mut rng);
         let mut sum = Vec3::ZERO;
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            sum += self.gather_ray(p, n, u);
+            sum += self.gather_ray(q, n, u);
         }
         Some(sum * (std::f32::consts::PI / points.len() as f32))
     }
@@ -164,9 +173,9 @@ impl Gatherer<'_> {
             radiance: Box::new([Vec3::ZERO; guide::CELLS]),
             luminance: Cells::default(),
         };
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let l = self.gather_ray(p, n, u);
+            let l = self.gather_ray(q, n, u);
             out.radiance[guide::cell_of(u)] += l;
             out.luminance.add(u, luminance(l));
         }
@@ -182,13 +191,14 @@ impl Gatherer<'_> {
         let strata = shuffled_strata(rays, &mut rng);
         let mut cells = Cells::default();
         let mut any = false;
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-            if !self
-                .ps
-                .bvh
-                .occluded(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY))
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+            if !below(q, n, dir)
+                && !self
+                    .ps
+                    .bvh
+                    .occluded(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY))
             {
                 cells.add(u, 1.0);
                 any = true;
@@ -197,14 +207,18 @@ impl Gatherer<'_> {
         any.then_some(cells)
     }
 
-    /// The radiance of the field seen from `p` (normal `n`) along square point `u`; a ray that
-    /// leaves the scene brings nothing (the sky is the direct part).
-    fn gather_ray(&self, p: Vec3, n: Vec3, u: Vec2) -> Vec3 {
-        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+    /// The radiance of the field seen from point `q` (geometric normal `n`) along square point
+    /// `u` about its shading normal; a ray that leaves the scene brings nothing (the sky is
+    /// the direct part), nor one below the geometric surface.
+    fn gather_ray(&self, q: GatherPoint, n: Vec3, u: Vec2) -> Vec3 {
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+        if below(q, n, dir) {
+            return Vec3::ZERO;
+        }
         let hit = self
             .ps
             .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+            .closest_hit(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY));
         if hit.is_hit() {
             self.field_radiance(dir, &hit)
         } else {
@@ -254,7 +268,7 @@ impl Gatherer<'_> {
         if !points.is_empty() {
             let strata = shuffled_strata(n_u, &mut rng);
             for k in 0..n_b as usize {
-                let p = points[k % points.len()];
+                let q = points[k % points.len()];
                 let u = match guide {
                     Some(g) if k >= n_u as usize => {
                         let v = ((k - n_u as usize) as f32 + rng.next_f32()) / n_g as f32;
@@ -262,7 +276,7 @@ impl Gatherer<'_> {
                     }
                     _ => strata.point(k, &mut rng),
                 };
-                let l = self.gather_ray(p, n, u);
+                let l = self.gather_ray(q, n, u);
                 let v = l * (std::f32::consts::PI / mix(guide::cell_of(u)));
                 sum += v;
                 moments.add(luminance(v) * total);
@@ -340,7 +354,8 @@ impl Gatherer<'_> {
             // the point strata).
             let strata = shuffled_strata(n_l, &mut rng);
             for k in 0..n_l as usize {
-                let p = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
+                let q = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
+                let p = q.p;
                 let u = strata.point(k, &mut rng);
                 let (e, u) = lights.pick_emitter_remapped(u);
                 let tri = &self.ps.bvh.triangles[e.tri as usize];
@@ -351,12 +366,12 @@ impl Gatherer<'_> {
                 let to = x - p;
                 let d2 = to.length_squared();
                 let wi = to / d2.sqrt();
-                let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
+                let (cos_r, cos_l) = (q.n.dot(wi), -wi.dot(nl));
                 let mut value = Vec3::ZERO;
-                if cos_r > 0.0 && cos_l > 0.0 {
+                if cos_r > 0.0 && cos_l > 0.0 && !below(q, n, wi) {
                     let pdf_l = e.pdf / e.area * d2 / cos_l;
                     let m =
-                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, n)));
+                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, q.n)));
                     let pdf_b = m * cos_r * std::f32::consts::FRAC_1_PI;
                     let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
                     let origin = offset_ray_origin(p, n);
@@ -378,7 +393,7 @@ impl Gatherer<'_> {
             // against the light samples.
             let strata = shuffled_strata(n_u, &mut rng);
             for k in 0..n_b as usize {
-                let p = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
+                let q = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
                 let u = match guide {
                     Some(g) if k >= n_u as usize => {
                         let v = ((k - n_u as usize) as f32 + rng.next_f32()) / (n_b - n_u) as f32;
@@ -387,7 +402,7 @@ impl Gatherer<'_> {
                     _ => strata.point(k, &mut rng),
                 };
                 let m = guide::mixture(guide, n_u, n_b, guide::cell_of(u));
-                let value = self.direct_ray(p, n, u, m, fl, fb);
+                let value = self.direct_ray(q, n, u, m, fl, fb);
                 sum += value;
                 m_b.add(luminance(value) * fb);
             }
@@ -395,13 +410,16 @@ impl Gatherer<'_> {
             // Delta lights (suns, point and spot lights): one shadow ray per point and light.
             if !lights.delta.is_empty() {
                 let mut sun = Vec3::ZERO;
-                for &p in &points {
-                    let origin = offset_ray_origin(p, n);
+                for &q in &points {
+                    let origin = offset_ray_origin(q.p, n);
                     let mut value = Vec3::ZERO;
                     for s in &lights.delta {
-                        let inc = s.incident(p);
-                        let cos = n.dot(inc.wi);
-                        if cos > 0.0 && !self.ps.bvh.occluded(&s.shadow_ray(origin, &inc)) {
+                        let inc = s.incident(q.p);
+                        let cos = q.n.dot(inc.wi);
+                        if cos > 0.0
+                            && !below(q, n, inc.wi)
+                            && !self.ps.bvh.occluded(&s.shadow_ray(origin, &inc))
+                        {
                             value += inc.irradiance * cos;
                         }
                     }
@@ -429,16 +447,20 @@ impl Gatherer<'_> {
         })
     }
 
-    /// What one ray of the direct estimator from `p` (normal `n`) at square point `u` adds:
-    /// the sky if it leaves the scene, an emitter's front weighted against the light samples,
-    /// with the rays' density `m` relative to cosine sampling.
-    fn direct_ray(&self, p: Vec3, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
+    /// What one ray of the direct estimator from point `q` (geometric normal `n`) at square
+    /// point `u` about its shading normal adds: the sky if it leaves the scene, an emitter's
+    /// front weighted against the light samples, with the rays' density `m` relative to cosine
+    /// sampling; nothing below the geometric surface.
+    fn direct_ray(&self, q: GatherPoint, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
         let lights = &self.ps.lights;
-        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+        if below(q, n, dir) {
+            return Vec3::ZERO;
+        }
         let hit = self
             .ps
             .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+            .closest_hit(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY));
         if !hit.is_hit() {
             return self.sky * (std::f32::consts::PI / (fb * m));
         }
@@ -451,7 +473,7 @@ impl Gatherer<'_> {
         if cos_l <= 0.0 {
             return Vec3::ZERO; // the back of an emitter
         }
-        let pdf_b = m * n.dot(dir) * std::f32::consts::FRAC_1_PI;
+        let pdf_b = m * q.n.dot(dir) * std::f32::consts::FRAC_1_PI;
         let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
         let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = self.ps.emission(hit.tri, hit.u, hit.v);
@@ -480,6 +502,13 @@ pub struct DirectTexel {
     pub e: Vec3,
     pub variance: f32,
     pub rays: u32,
+}
+
+/// Whether direction `dir` from a point `q` with a shading normal of its own lies below the
+/// geometric surface (unit normal `n` of the lit side): such a ray would enter the solid
+/// behind the face, and brings nothing. Never for a flat point (its rays are drawn about `n`).
+pub fn below(q: GatherPoint, n: Vec3, dir: Vec3) -> bool {
+    q.n != n && dir.dot(n) <= 0.0
 }
 
 /// Rec. 709 luminance.

@@ -9,6 +9,11 @@
 //! closed when a probe along its normal hits anything within `r_close` (a gap thinner than
 //! about half a texel, which the atlas cannot resolve anyway), or when it lies inside a closed
 //! solid (of three probes, along the normal and two tilted directions, most reach back faces).
+//!
+//! Each point carries the shading normal its rays are drawn about ([`GatherPoint::n`]): the
+//! interpolated vertex normal where its triangle is smooth, the face's normal elsewhere. The
+//! openness probes and the rays' origins stay with the face's (geometric) normal: they are
+//! about where the surface is, not how it shades.
 
 use glam::{Vec2, Vec3};
 
@@ -62,6 +67,14 @@ impl Openness<'_> {
         }
         unreachable!("three directions reach a majority")
     }
+}
+
+/// A sample point of a texel (world space) and the unit shading normal of the texel's lit side
+/// there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherPoint {
+    pub p: Vec3,
+    pub n: Vec3,
 }
 
 /// Stratified open points of the texels of one atlas.
@@ -166,11 +179,11 @@ impl TexelPoints<'_> {
     }
 
     /// Up to `count` stratified world points on texel `t` (its face, its lit side) where the
-    /// texel is open, appended to `out`: stratum `k` of a g × g grid over the texel square
-    /// (g = ⌈√count⌉) holds point `k`, redrawn within the stratum when off the face or closed,
-    /// then anywhere in the texel; points that find no open spot are dropped. Returns the lit
-    /// side's unit normal.
-    pub fn sample(&self, t: usize, count: u32, rng: &mut Rng, out: &mut Vec<Vec3>) -> Vec3 {
+    /// texel is open, appended to `out` with their shading normals: stratum `k` of a g × g
+    /// grid over the texel square (g = ⌈√count⌉) holds point `k`, redrawn within the stratum
+    /// when off the face or closed, then anywhere in the texel; points that find no open spot
+    /// are dropped. Returns the lit side's unit (geometric) normal.
+    pub fn sample(&self, t: usize, count: u32, rng: &mut Rng, out: &mut Vec<GatherPoint>) -> Vec3 {
         let (fi, side, corner) = self.locate(t);
         let n = {
             let n = self.atlas.faces[fi].normal();
@@ -196,24 +209,31 @@ impl TexelPoints<'_> {
                 } else {
                     corner + j
                 };
-                if !self.charts.inside(fi, c) {
+                let Some(tri) = self.charts.locate(fi, c) else {
                     continue;
-                }
+                };
                 let p = self.world(fi, c);
                 if test_each && !self.open.is_open(p, n) {
                     continue;
                 }
-                out.push(p);
+                out.push(GatherPoint {
+                    p,
+                    n: self.charts.shading_normal(fi, tri, c, n),
+                });
                 break;
             }
         }
         if out.len() == first {
             // A sliver of the face that no draw found: its covered part's centroid.
-            let p = self
-                .xf
-                .inverse(glam::Vec4::from(self.atlas.texel_center[t]).truncate());
+            let q = glam::Vec4::from(self.atlas.texel_center[t]).truncate();
+            let p = self.xf.inverse(q);
             if !test_each || self.open.is_open(p, n) {
-                out.push(p);
+                let c = super::field::chart_coords(&self.atlas.faces[fi], q);
+                let ns = match self.charts.locate(fi, c) {
+                    Some(tri) => self.charts.shading_normal(fi, tri, c, n),
+                    None => n,
+                };
+                out.push(GatherPoint { p, n: ns });
             }
         }
         n

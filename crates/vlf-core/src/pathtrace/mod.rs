@@ -4,7 +4,17 @@
 //!
 //! * **Geometry**: a binned-SAH [`Bvh`] over the scene's world-space triangles (32-byte nodes,
 //!   depth-first layout, stack traversal) with the watertight ray–triangle test of Woop et al.
-//!   and self-intersection-free ray origins ([`geometry`]). Faces are flat shaded.
+//!   and self-intersection-free ray origins ([`geometry`]).
+//! * **Shading normals** (a triangle's [`normals`](crate::scene::Triangle::normals), flat
+//!   where it has none): the BSDF is evaluated and sampled about the interpolated normal,
+//!   turned to the side the ray arrived at (the geometric normal decides the side, and
+//!   emission stays one-sided by winding). Rays leave from the geometric surface (offset along
+//!   its normal); a direction below the geometric surface (the shading normal's hemisphere
+//!   reaches under it) ends the path, and a light sample there counts nothing: the ray would
+//!   enter the solid the surface bounds. `--flat-normals` (`Scene::flatten_normals`) renders
+//!   every face flat, as the shared references other than lamp-room are.
+//! * **Vertex colours** multiply the base colour (the Lambertian albedo and the metal's C);
+//!   each texture is read with the texture coordinate set its slot names.
 //! * **Pixels**: the mean radiance over the pixel square (box filter): each sample picks a
 //!   uniform point of the pixel. Row 0 is the top. Pinhole camera, `yfov` vertical, aspect =
 //!   width / height.
@@ -285,7 +295,13 @@ impl<'a> PreparedScene<'a> {
         }
     }
 
-    fn uv_at(&self, tri: u32, b1: f32, b2: f32) -> Vec2 {
+    /// Texture coordinates of set `set` of leaf-order triangle `tri` at barycentrics
+    /// `(b1, b2)`.
+    fn uv_at(&self, tri: u32, set: u32, b1: f32, b2: f32) -> Vec2 {
+        if set == 1 {
+            let t = &self.bvh.triangles[tri as usize];
+            return self.scene.triangles[t.prim as usize].uv_at(1, b1, b2);
+        }
         let uv = &self.uvs[tri as usize];
         uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
     }
@@ -297,7 +313,33 @@ impl<'a> PreparedScene<'a> {
         if m.emission == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        m.emission * self.texture(m.emissive_texture, self.uv_at(tri, b1, b2))
+        m.emission
+            * self.texture(
+                m.emissive_texture,
+                self.uv_at(tri, m.emissive_texcoord, b1, b2),
+            )
+    }
+
+    /// The base colour C (factor × texture × vertex colour) of leaf-order triangle `tri` at
+    /// barycentrics `(b1, b2)`.
+    pub fn base_color(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
+        let t = &self.bvh.triangles[tri as usize];
+        let m = &self.materials[t.material as usize];
+        let st = &self.scene.triangles[t.prim as usize];
+        m.base_color
+            * self.texture(m.base_texture, self.uv_at(tri, m.base_texcoord, b1, b2))
+            * st.color_at(b1, b2)
+    }
+
+    /// The unit shading normal of leaf-order triangle `tri` at barycentrics `(b1, b2)` on the
+    /// side whose unit geometric normal is `n` (`n` itself for a flat triangle).
+    pub fn shading_normal(&self, tri: u32, b1: f32, b2: f32, n: Vec3) -> Vec3 {
+        let t = &self.bvh.triangles[tri as usize];
+        match self.scene.triangles[t.prim as usize].shading_normal_at(b1, b2) {
+            Some(m) if m.dot(n) < 0.0 => -m,
+            Some(m) => m,
+            None => n,
+        }
     }
 
     /// Radiance arriving at the camera along one path starting with `origin + t·dir`.
@@ -321,10 +363,9 @@ impl<'a> PreparedScene<'a> {
             let cos_d = d.dot(ng);
             let front = cos_d < 0.0;
             let m = &self.materials[tri.material as usize];
-            let uv = self.uv_at(hit.tri, hit.u, hit.v);
             // Emission (front face), MIS-weighted against light sampling.
             if front && m.emission != Vec3::ZERO {
-                let le = m.emission * self.texture(m.emissive_texture, uv);
+                let le = self.emission(hit.tri, hit.u, hit.v);
                 let w = if prev_delta {
                     1.0
                 } else {
@@ -333,18 +374,19 @@ impl<'a> PreparedScene<'a> {
                 };
                 l += beta * le * w;
             }
-            let n = if front { ng } else { -ng };
+            let ng = if front { ng } else { -ng };
+            let n = self.shading_normal(hit.tri, hit.u, hit.v, ng);
             let wo = -d;
             let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
-            let color = m.base_color * self.texture(m.base_texture, uv);
-            let origin = offset_ray_origin(p, n);
+            let color = self.base_color(hit.tri, hit.u, hit.v);
+            let origin = offset_ray_origin(p, ng);
             // Next-event estimation: one light sample.
             let u_class = rng.next_f32();
             let u_light = rng.next_f32();
             let u_point = rng.next_2d();
             if m.has_smooth_part() {
-                l +=
-                    beta * self.sample_light(m, color, p, n, wo, origin, u_class, u_light, u_point);
+                let at = Vertex { p, n, ng, origin };
+                l += beta * self.sample_light(m, color, &at, wo, u_class, u_light, u_point);
             }
             // Continue the path.
             let u_lobe = rng.next_f32();
@@ -352,6 +394,10 @@ impl<'a> PreparedScene<'a> {
             let Some(s) = material::sample(m, color, n, wo, u_lobe, u_dir) else {
                 break;
             };
+            // Below the geometric surface (a smooth vertex only): into the solid.
+            if n != ng && s.wi.dot(ng) <= 0.0 {
+                break;
+            }
             beta *= s.weight;
             if depth >= RR_DEPTH {
                 let q = beta.max_element().min(RR_MAX_SURVIVAL);
@@ -371,21 +417,22 @@ impl<'a> PreparedScene<'a> {
         l
     }
 
-    /// One NEE sample at `p` (MIS-weighted against BSDF sampling), unoccluded contribution
-    /// already tested; to be multiplied by the path throughput.
+    /// One NEE sample at vertex `at` (MIS-weighted against BSDF sampling), unoccluded
+    /// contribution already tested; to be multiplied by the path throughput.
     #[allow(clippy::too_many_arguments)]
     fn sample_light(
         &self,
         m: &SurfaceMaterial,
         color: Vec3,
-        p: Vec3,
-        n: Vec3,
+        at: &Vertex,
         wo: Vec3,
-        origin: Vec3,
         u_class: f32,
         u_light: f32,
         u_point: Vec2,
     ) -> Vec3 {
+        let Vertex { p, n, ng, origin } = *at;
+        // A direction below the geometric surface (smooth vertices only) brings nothing.
+        let below = |wi: Vec3| n != ng && wi.dot(ng) <= 0.0;
         let lights = &self.lights;
         if u_class < lights.p_emitters {
             let e = lights.emitters[lights.pick_emitter(u_light)];
@@ -399,7 +446,7 @@ impl<'a> PreparedScene<'a> {
             let dist = dist2.sqrt();
             let wi = to / dist;
             let cos_l = -wi.dot(nl);
-            if cos_l <= 0.0 || n.dot(wi) <= 0.0 {
+            if cos_l <= 0.0 || n.dot(wi) <= 0.0 || below(wi) {
                 return Vec3::ZERO;
             }
             let (f, pdf_bsdf) = material::eval(m, color, n, wo, wi);
@@ -426,7 +473,7 @@ impl<'a> PreparedScene<'a> {
             let s = lights.delta[lights.pick_delta(u_light)];
             let inc = s.incident(p);
             let cos_i = n.dot(inc.wi);
-            if cos_i <= 0.0 {
+            if cos_i <= 0.0 || below(inc.wi) {
                 return Vec3::ZERO;
             }
             let (f, _) = material::eval(m, color, n, wo, inc.wi);
@@ -440,6 +487,16 @@ impl<'a> PreparedScene<'a> {
             Vec3::ZERO
         }
     }
+}
+
+/// A path vertex: its point, shading normal `n` and geometric normal `ng` (both on the side
+/// the path arrived at), and the offset origin of rays leaving it.
+#[derive(Clone, Copy)]
+struct Vertex {
+    p: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    origin: Vec3,
 }
 
 /// Side of a render tile in pixels (the unit of work handed to threads).

@@ -593,7 +593,7 @@ fn gather_grid(
     if count == 0 {
         return Ok(Some(Vec::new()));
     }
-    let (data, [grid_texels, chart_start, chart_tris]) = grid_data(grid);
+    let (data, [grid_texels, chart_start, chart_tris, chart_normals]) = grid_data(grid);
     let data = checked(
         device,
         "FinalGather::grid",
@@ -658,6 +658,7 @@ fn gather_grid(
         grid_texels,
         chart_start,
         chart_tris,
+        chart_normals,
         field_irradiance: irradiance_at,
         field_contacts: contacts_at,
         scratch_stride: est.scratch_stride(),
@@ -741,8 +742,8 @@ fn chunk_texels(
 }
 
 /// The grid buffer's contents (see `gather_texels.wgsl`) and its section offsets (texels,
-/// chart starts, chart triangles).
-fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 3]) {
+/// chart starts, chart triangles, chart normals).
+fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 4]) {
     let atlas = &grid.atlas;
     let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&atlas.faces).to_vec();
     let grid_texels = data.len() as u32;
@@ -757,17 +758,33 @@ fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 3]) {
     }
     let chart_start = data.len() as u32;
     let mut tris: Vec<[f32; 4]> = Vec::new();
+    let mut normals: Vec<[f32; 4]> = Vec::new();
     for fi in 0..atlas.faces.len() {
         data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-        for t in grid.charts.triangles(fi) {
+        for (t, n) in grid
+            .charts
+            .triangles(fi)
+            .iter()
+            .zip(grid.charts.normals(fi))
+        {
+            let at = match n {
+                Some(n) => {
+                    let at = normals.len() as u32;
+                    normals.extend(n.map(|n| n.extend(0.0).to_array()));
+                    at
+                }
+                None => u32::MAX,
+            };
             tris.push([t[0].x, t[0].y, t[1].x, t[1].y]);
-            tris.push([t[2].x, t[2].y, 0.0, 0.0]);
+            tris.push([t[2].x, t[2].y, f32::from_bits(at), 0.0]);
         }
     }
     data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
     let chart_tris = data.len() as u32;
     data.extend(tris);
-    (data, [grid_texels, chart_start, chart_tris])
+    let chart_normals = data.len() as u32;
+    data.extend(normals);
+    (data, [grid_texels, chart_start, chart_tris, chart_normals])
 }
 
 #[cfg(test)]

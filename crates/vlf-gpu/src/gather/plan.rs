@@ -18,6 +18,10 @@ pub struct GatherCounts {
     /// Planar faces (charts) of the scene, and its triangles.
     pub faces: u64,
     pub triangles: u64,
+    /// Triangles with shading normals, and those with any per-corner attribute beyond
+    /// `TEXCOORD_0` (shading normals, vertex colours, `TEXCOORD_1`).
+    pub smooth_triangles: u64,
+    pub attributed_triangles: u64,
     /// Texels of the propagation's atlas and its mirror tile values.
     pub field_texels: u64,
     pub tile_values: u64,
@@ -80,7 +84,11 @@ impl GatherPlan {
             ),
             buffer(
                 "Gather scene: shading data (uvs, materials, lights, textures)",
-                2 * c.triangles + 3 * c.materials + 2 * c.triangles + c.texture_texels,
+                2 * c.triangles
+                    + 3 * c.materials
+                    + 2 * c.triangles
+                    + c.texture_texels
+                    + u64::from(crate::raytrace::scene::ATTRIBUTE_ENTRIES) * c.attributed_triangles,
                 16,
             ),
             buffer(
@@ -102,7 +110,12 @@ impl GatherPlan {
             grids.push(vec![
                 buffer(
                     "FinalGather::grid (faces, texels, charts)",
-                    5 * c.faces + 2 * texels[i] + c.faces + 1 + 2 * c.triangles,
+                    5 * c.faces
+                        + 2 * texels[i]
+                        + c.faces
+                        + 1
+                        + 2 * c.triangles
+                        + 3 * c.smooth_triangles,
                     16,
                 ),
                 buffer("FinalGather::out", texels[i], 16),

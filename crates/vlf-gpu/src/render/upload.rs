@@ -30,6 +30,12 @@
 //!   of every face, 5 only for emitters, 6 only for textured faces ([`FLAG_DIFFUSE`] and the
 //!   other flags) and 7 only for non-diffuse faces: the reflectance for the visible one and
 //!   for mirrors along a traced chain, α for the visible one ([`super::mirror_trace`]).
+//! * Per-corner attributes (light fields with shading normals, vertex colours or a texture read
+//!   with `TEXCOORD_1`; [`super::attributes`]): a storage buffer of two `vec4` per triangle
+//!   corner, `[n.xyz, t.x]`, `[c.rgb, t.y]` (shading normal, zero on flat triangles; vertex
+//!   colour, white without; `TEXCOORD_1`), six per triangle in the light field's triangle order;
+//!   the uploaded triangles name their index there in their first padding word. Read by
+//!   vertex shaders and, along mirror chains, by pass 5. Face flags say which faces need them.
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -51,6 +57,7 @@ use vlf_core::lightfield::{
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
+use super::attributes::{ATTRIBUTE_ENTRIES, attribute_flags, corner_attributes, has_attributes};
 use super::targets::{MIRROR_STENCIL, TEXTURED_STENCIL};
 use super::texture_entry;
 
@@ -67,6 +74,8 @@ pub const FLAG_DIFFUSE: u32 = 0x100;
 pub const FLAG_BASE_TEXTURE: u32 = 0x200;
 pub const FLAG_EMISSIVE: u32 = 0x400;
 pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
+/// The per-corner attribute flags of a face, above these (`super::attributes`).
+pub use super::attributes::{FLAG_BASE_UV1, FLAG_COLORS, FLAG_EMISSIVE_UV1, FLAG_SMOOTH};
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
@@ -80,6 +89,9 @@ pub struct GpuLightField {
     /// `TEXCOORD_0` per triangle corner (vec2, three per triangle, in the order of
     /// [`triangles`](Self::triangles)).
     pub uvs: wgpu::Buffer,
+    /// Per-corner attributes ([`corner_attributes`]; a dummy without), and whether there are.
+    pub attributes: wgpu::Buffer,
+    pub has_attributes: bool,
     /// Face records (see the module docs).
     pub faces_view: wgpu::TextureView,
     /// The irradiance atlas (see the module docs).
@@ -262,12 +274,17 @@ pub fn is_textured(m: &SurfaceMaterial) -> bool {
     face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
 }
 
-/// The face record texels of `f` with its material `m` (see the module docs).
-pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
+/// The face record texels of `f` with its material `m` and attribute flags `attrs` (see the
+/// module docs and [`super::attributes::attribute_flags`]).
+pub fn face_record(
+    f: &BakeFace,
+    m: &SurfaceMaterial,
+    attrs: u32,
+) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
     let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
     let rho = rho_over_pi(m);
     [
-        b(f.normal, f.kind | face_flags(m)),
+        b(f.normal, f.kind | face_flags(m) | attrs),
         b(f.origin, f.texel_size.to_bits()),
         b(f.u, f.width),
         b(f.v, f.height),
@@ -348,7 +365,15 @@ impl GpuLightField {
                 .position(|&i| stencil(&lf.triangles[i]) >= s)
                 .unwrap_or(order.len()) as u32
         });
-        let tris: Vec<BakeTriangle> = order.iter().map(|&i| lf.triangles[i]).collect();
+        // Each uploaded triangle names its index in the light field (its per-corner
+        // attributes') in its first padding word.
+        let tris: Vec<BakeTriangle> = order
+            .iter()
+            .map(|&i| BakeTriangle {
+                _pad0: i as u32,
+                ..lf.triangles[i]
+            })
+            .collect();
         let corner_uvs: Vec<[[f32; 2]; 3]> = order.iter().map(|&i| sh.uvs[i]).collect();
         let triangles = buffer(
             "Renderer::triangles",
@@ -369,11 +394,20 @@ impl GpuLightField {
         let sphere_vertices = buffer("Renderer::sphere_vertices", bytemuck::cast_slice(&verts))?;
         let sphere_triangles = buffer("Renderer::sphere_triangles", bytemuck::cast_slice(&tris))?;
         let uvs = buffer("Renderer::uvs", bytemuck::cast_slice(&corner_uvs))?;
+        let has_attributes = has_attributes(lf);
+        let attrs = if has_attributes {
+            corner_attributes(lf)
+        } else {
+            Vec::new()
+        };
+        let attributes = buffer("Renderer::attributes", bytemuck::cast_slice(&attrs))?;
 
+        let flags = attribute_flags(lf);
         let records: Vec<[u32; 4]> = lf
             .faces
             .iter()
-            .flat_map(|f| face_record(f, &sh.materials[f.material as usize]))
+            .zip(&flags)
+            .flat_map(|(f, fl)| face_record(f, &sh.materials[f.material as usize], *fl))
             .collect();
         let faces_view = wrapped_texture(
             device,
@@ -463,6 +497,8 @@ impl GpuLightField {
             stencil_starts,
             face_count: lf.faces.len() as u32,
             uvs,
+            attributes,
+            has_attributes,
             faces_view,
             atlas_view,
             texture_records_view,
@@ -643,7 +679,7 @@ fn banded_texture(
 fn validate(lf: &LightField) -> Result<(), RenderError> {
     let invalid = |msg: String| Err(RenderError::InvalidLightField(msg));
     if lf.faces.len() >= u32::MAX as usize / FACE_RECORD_TEXELS as usize
-        || lf.triangles.len() > (u32::MAX / 3) as usize
+        || lf.triangles.len() > (u32::MAX / ATTRIBUTE_ENTRIES as u32) as usize
         || lf.irradiance.len() > u32::MAX as usize
         || lf.shading.texels.len() > u32::MAX as usize
     {

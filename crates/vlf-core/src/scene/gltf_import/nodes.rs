@@ -219,6 +219,7 @@ impl Importer<'_> {
             to_vlf,
             warnings: self.warnings,
             source: self.path.to_path_buf(),
+            ignored_normal_maps: self.ignored_normal_maps,
         })
     }
 
