@@ -302,7 +302,8 @@ fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, s: Surface) 
         }
         var e = atlas_irradiance(f, side, p);
         if ATTRIBUTES && (f.flags & FLAG_SMOOTH) != 0u {
-            e = e + s.irradiance;
+            // Never below zero (vlf_gpu::render::final_radiance::surface_radiance).
+            e = max(e + s.irradiance, vec3<f32>(0.0));
         }
         l = rho * e;
     }

@@ -641,7 +641,9 @@ pub fn surface_radiance(
         }
         let mut e = atlas_irradiance(f, &lf.irradiance, side, p);
         if flags & FLAG_SMOOTH != 0 {
-            e += s.irradiance;
+            // The correction interpolates between corners, the atlas varies inside the face:
+            // their sum can dip below zero next to a dark texel, irradiance cannot.
+            e = (e + s.irradiance).max(Vec3::ZERO);
         }
         l = rho * e;
     }
