@@ -211,13 +211,15 @@ fn to_vlf_point(p: vec3<f32>) -> vec3<f32> {
     return (p - gg.xf_center) * gg.xf_scale;
 }
 
-// Whether chart point c (texel units) of grid face `fi` lies on one of its triangles.
+// Whether chart point c (texel units) of grid face `fi` lies on one of its triangles where its
+// alpha mask leaves a surface (Charts::inside: the first triangle that holds it decides).
 fn chart_inside(fi: u32, c: vec2<f32>) -> bool {
     for (var t = chart_start(fi); t < chart_start(fi + 1u); t++) {
         let a = grid[gg.chart_tris + 2u * t];
         let q0 = a.xy;
         let q1 = a.zw;
-        let q2 = grid[gg.chart_tris + 2u * t + 1u].xy;
+        let b = grid[gg.chart_tris + 2u * t + 1u];
+        let q2 = b.xy;
         let e0 = q1 - q0;
         let e1 = q2 - q1;
         let e2 = q0 - q2;
@@ -225,7 +227,11 @@ fn chart_inside(fi: u32, c: vec2<f32>) -> bool {
         let d1 = e1.x * (c - q1).y - e1.y * (c - q1).x;
         let d2 = e2.x * (c - q2).y - e2.y * (c - q2).x;
         if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
-            return true;
+            let sum = d0 + d1 + d2;
+            if alpha_masks[0] == 0u || sum == 0.0 {
+                return true;
+            }
+            return !alpha_cuts(bitcast<u32>(b.z), vec3<f32>(d1 / sum, d2 / sum, d0 / sum));
         }
     }
     return false;

@@ -87,6 +87,10 @@ override SPECULAR: bool = true;
 // Whether mirror and mixed faces trace their reflection (see the header); false compiles the
 // traversal out.
 override TRACING: bool = false;
+// Whether the light field has alpha masks: fs_surface then discards the fragments they cut, as
+// passes 3 and 4 do (a masked triangle's fragment in front of what pass 3 kept would pass the
+// "greater or equal" test).
+override MASKS: bool = false;
 // Mirrors a traced chain follows, the visible one included (vlf_gpu::render::mirror_trace::
 // MAX_DEPTH, a Rust test checks).
 const MIRROR_DEPTH: u32 = 8u;
@@ -107,7 +111,10 @@ const LOBE_SAMPLES: u32 = 4u;
 // it exactly, so the shader is the same for both.
 @group(1) @binding(5) var atlas: texture_2d<f32>;
 // Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
-@group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
+// Binding 6: alpha_masks (common/alpha_mask.wgsl, imported with common/bvh.wgsl), the light
+// field's triangles' masks in its own order: the mirror BVH's `prim`, and the window's draws'
+// triangles by BakeTriangle::_pad0 (which the upload sets to that index).
 // Group 2: the mirror tiles (common/mirror_tiles.wgsl; see upload.rs).
 // Pass 4's second target: the visible point's TEXCOORD_0.
 @group(1) @binding(10) var uvs: texture_2d<f32>;
@@ -420,6 +427,8 @@ struct SurfaceVertex {
     @location(6) @interpolate(flat) r3: vec4<u32>,
     @location(7) @interpolate(flat) r4: vec4<u32>,
     @location(8) @interpolate(flat) r5: vec4<u32>,
+    // The triangle's index in the light field (alpha masks).
+    @location(9) @interpolate(flat) tri: u32,
 }
 
 @vertex
@@ -432,6 +441,7 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
     out.position = p;
     out.uv = surface_uvs[vi];
     out.face = face;
+    out.tri = tri._pad0;
     out.r0 = face_texel(face, 0u);
     out.r1 = face_texel(face, 1u);
     out.r2 = face_texel(face, 2u);
@@ -445,6 +455,9 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
 // Writes only its colour target, so the depth and stencil tests run before it.
 @fragment
 fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
+    if MASKS && alpha_cuts_uv(in.tri, in.uv) {
+        discard;
+    }
     let f = face_from_record(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
     let px = vec2<i32>(vec2<u32>(in.clip.xy));
     return present(shade_surface(in.face, f, in.position, in.uv, px));

@@ -14,3 +14,4 @@ mod render_encoding;
 mod render_mirrors;
 mod render_textures;
 mod stability_gpu;
+mod transmission_gpu;

@@ -167,15 +167,34 @@ fn info(path: &Path, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What `inspect --json` prints: the scene's counts and each material's model.
+#[derive(serde::Serialize)]
+struct InspectReport {
+    #[serde(flatten)]
+    summary: vlf_core::scene::SceneSummary,
+    /// (name, model) of every material ([`vlf_core::scene::Material::model`]).
+    material_models: Vec<(String, String)>,
+}
+
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
-    let summary = scene.summary();
+    let report = InspectReport {
+        summary: scene.summary(),
+        material_models: scene
+            .materials
+            .iter()
+            .map(|m| (m.name.clone(), m.model()))
+            .collect(),
+    };
     if json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
     println!("scene {}", path.display());
-    println!("{}", serde_json::to_string_pretty(&summary)?);
+    println!("{}", serde_json::to_string_pretty(&report.summary)?);
+    for (i, (name, model)) in report.material_models.iter().enumerate() {
+        println!("material {i} {name:?}: {model}");
+    }
     for w in &scene.warnings {
         println!("warning: {w}");
     }

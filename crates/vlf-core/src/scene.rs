@@ -247,6 +247,59 @@ pub struct Material {
     pub metallic: f32,
     /// glTF roughness factor as read (clamped to [0, 1]).
     pub roughness: f32,
+    /// Where the surface lets light through: alpha cut-outs and thin glass panes.
+    pub transparency: Transparency,
+}
+
+/// glTF `alphaMode`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum AlphaMode {
+    /// Alpha is ignored.
+    #[default]
+    Opaque,
+    /// Where the coverage α (baseColorFactor.a × the base-colour texture's alpha) is below
+    /// [`Transparency::alpha_cutoff`] there is no surface.
+    Mask,
+    /// Coverage approximated by a threshold at α = ½: modelled as [`Mask`](AlphaMode::Mask) with a
+    /// cutoff of 0.5 (see `docs/PROPAGATION.md`, *Alpha masks*).
+    Blend,
+}
+
+/// How a material lets light through (`shared/reference/README.md`: *Alpha*, *Thin
+/// transmission*).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transparency {
+    /// glTF `alphaMode`.
+    pub alpha_mode: AlphaMode,
+    /// glTF `alphaCutoff` (0.5 unless the file says otherwise; 0.5 for [`AlphaMode::Blend`]).
+    pub alpha_cutoff: f32,
+    /// baseColorFactor.a, clamped to [0, 1].
+    pub alpha: f32,
+}
+
+impl Default for Transparency {
+    fn default() -> Self {
+        Transparency {
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            alpha: 1.0,
+        }
+    }
+}
+
+impl Transparency {
+    /// Whether alpha cuts holes into the surface (masks, and blends modelled as masks).
+    pub fn masks(&self) -> bool {
+        self.alpha_mode != AlphaMode::Opaque
+    }
+
+    /// The cutoff in effect: `alpha_cutoff` for masks, ½ for blends.
+    pub fn cutoff(&self) -> f32 {
+        match self.alpha_mode {
+            AlphaMode::Blend => 0.5,
+            _ => self.alpha_cutoff,
+        }
+    }
 }
 
 impl Material {
@@ -285,6 +338,43 @@ impl Material {
     /// Whether the material emits light (non-zero emission factor).
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// How vlf models the material, in words (`vlf-bake inspect`): its lobes, then what lets
+    /// light through it, e.g. `diffuse, alpha mask (cutoff 0.5, baseColorFactor.a 1)`.
+    pub fn model(&self) -> String {
+        let metal = if self.specular_alpha() > 0.0 {
+            format!("GGX metal (α {:.3})", self.specular_alpha())
+        } else {
+            "mirror".to_string()
+        };
+        let mut s = match self.kind {
+            MaterialKind::Diffuse => "diffuse".to_string(),
+            MaterialKind::Mirror => metal,
+            MaterialKind::Mixed { specular } => {
+                format!("{:.2} diffuse + {specular:.2} {metal}", 1.0 - specular)
+            }
+        };
+        if self.is_emissive() {
+            s += ", emissive";
+        }
+        let t = &self.transparency;
+        match t.alpha_mode {
+            AlphaMode::Opaque => {}
+            AlphaMode::Mask => {
+                s += &format!(
+                    ", alpha mask (cutoff {}, baseColorFactor.a {})",
+                    t.alpha_cutoff, t.alpha
+                )
+            }
+            AlphaMode::Blend => {
+                s += &format!(
+                    ", alpha blend modelled as a mask at ½ (baseColorFactor.a {})",
+                    t.alpha
+                )
+            }
+        }
+        s
     }
 }
 

@@ -762,6 +762,64 @@ fn texture_is_decoded_to_linear() {
 }
 
 #[test]
+fn alpha_modes_and_cutoffs_are_read() {
+    let dir = temp_dir("alpha");
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b).replace(
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"pbrMetallicRoughness":{"metallicFactor":0}}]"#,
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"alphaMode":"MASK","alphaCutoff":0.3,
+            "pbrMetallicRoughness":{"metallicFactor":0,"baseColorFactor":[1,1,1,0.8]}},
+            {"alphaMode":"BLEND","pbrMetallicRoughness":{"baseColorFactor":[1,1,1,0.2]}},
+            {"alphaMode":"MASK"},
+            {"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,0.1]}}]"#,
+    );
+    let path = write(&dir, "alpha.gltf", b.document(Some(""), &rest));
+    let s = scene::load(&path).unwrap();
+    let t: Vec<_> = s.materials.iter().map(|m| m.transparency).collect();
+    assert_eq!(t[0].alpha_mode, scene::AlphaMode::Mask);
+    assert_eq!((t[0].alpha_cutoff, t[0].alpha), (0.3, 0.8));
+    // BLEND is a mask at ½ (docs/PROPAGATION.md, Alpha masks).
+    assert_eq!(t[1].alpha_mode, scene::AlphaMode::Blend);
+    assert_eq!((t[1].cutoff(), t[1].alpha), (0.5, 0.2));
+    assert!(t[1].masks());
+    // The glTF default cutoff.
+    assert_eq!(
+        (t[2].alpha_mode, t[2].cutoff(), t[2].alpha),
+        (scene::AlphaMode::Mask, 0.5, 1.0)
+    );
+    // OPAQUE ignores alpha.
+    assert_eq!(t[3], scene::Transparency::default());
+    assert!(!t[3].masks());
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("alphaMode")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn lamp_room_screen_is_a_nearest_mask() {
+    let s = load_shared("lamp-room/lamp-room.glb");
+    let m = s
+        .materials
+        .iter()
+        .find(|m| m.name == "perforated screen")
+        .unwrap();
+    assert_eq!(m.transparency.alpha_mode, scene::AlphaMode::Mask);
+    assert_eq!(m.transparency.cutoff(), 0.5);
+    let t = &s.textures[m.base_color_texture.unwrap().index as usize];
+    assert_eq!(
+        (t.width, t.height, t.filter),
+        (64, 64, scene::FilterMode::Nearest)
+    );
+    assert!(t.has_alpha);
+    // The holes: some texels transparent, most opaque.
+    let holes = t.pixels.iter().filter(|p| p.w < 0.5).count();
+    assert!(holes > 0 && holes < t.pixels.len() / 2, "{holes} holes");
+    assert!(!s.warnings.iter().any(|w| w.contains("alphaMode")));
+}
+
+#[test]
 fn point_light_and_points_primitive_are_warnings() {
     let dir = temp_dir("pointlight");
     let mut b = Builder::default();

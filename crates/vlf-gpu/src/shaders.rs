@@ -72,6 +72,8 @@ pub static COMMON_RAYS: Shader = shader!("common/rays.wgsl");
 pub static COMMON_BVH: Shader = shader!("common/bvh.wgsl");
 /// Texture wrap modes and the bilinear footprint (path tracer, pass 5).
 pub static COMMON_TEXTURE: Shader = shader!("common/texture.wgsl");
+/// Alpha masks: where a triangle has no surface (group 1, binding 6).
+pub static COMMON_ALPHA_MASK: Shader = shader!("common/alpha_mask.wgsl");
 /// Per-path random streams (`Rng`).
 pub static COMMON_RANDOM: Shader = shader!("common/random.wgsl");
 /// Sampling routines (cosine hemisphere, bases, barycentrics, MIS weights).
@@ -114,6 +116,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_RAYS,
     &COMMON_BVH,
     &COMMON_TEXTURE,
+    &COMMON_ALPHA_MASK,
     &COMMON_RANDOM,
     &COMMON_SAMPLING,
     &COMMON_RT_SCENE,

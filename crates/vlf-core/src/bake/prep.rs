@@ -17,7 +17,8 @@ use serde::Serialize;
 use super::glossy::{self, SpecularModel};
 use crate::directions::DirectionSet;
 use crate::lightfield::{
-    BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
+    AlphaMasks, BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED,
+    ParamsError,
 };
 use crate::scene::{MaterialKind, Scene, Texture};
 
@@ -56,6 +57,9 @@ pub struct BakeScene {
     pub materials: Vec<glossy::BakedMaterial>,
     /// Suns in VLF: (travel direction, irradiance).
     pub suns: Vec<(Vec3, Vec3)>,
+    /// The alpha masks of `triangles` (empty when no material masks): the propagation's rays
+    /// pass through a triangle where it [`cuts`](AlphaMasks::cuts).
+    pub masks: AlphaMasks,
     pub texel_size: f32,
     pub warnings: Vec<String>,
 }
@@ -82,6 +86,7 @@ impl BakeScene {
     fn prepare(scene: &Scene, texel_size: f32, spacing: Option<f32>) -> Result<Self, ParamsError> {
         let xf = scene.to_vlf;
         let baked = glossy::baked_materials(&scene.materials, spacing);
+        let masks = AlphaMasks::from_scene(scene);
         let warnings = Vec::new();
 
         let triangles: Vec<BakeTriangle> = scene
@@ -157,13 +162,14 @@ impl BakeScene {
             // the centroid of the largest covered piece.
             let mut area = vec![0f64; w * h];
             let mut centroid = vec![Vec2::ZERO; w * h];
-            let mut best = vec![(0f64, Vec2::ZERO); w * h];
+            let mut best = vec![(0f64, Vec2::ZERO, (0u32, [0f32; 3])); w * h];
             let basis = crate::scene::PlaneBasis {
                 origin: Vec3::from(bf.origin),
                 u: Vec3::from(bf.u),
                 v: Vec3::from(bf.v),
             };
-            for tri in scene.face_triangles(fi) {
+            for (k, tri) in scene.face_triangles(fi).iter().enumerate() {
+                let ti = f.triangles.start + k as u32;
                 let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
                 let lo = q[0].min(q[1]).min(q[2]);
                 let hi = q[0].max(q[1]).max(q[2]);
@@ -183,7 +189,8 @@ impl BakeScene {
                         centroid[i] += c * a as f32;
                         if a > best[i].0 {
                             // uv at c by barycentrics in the chart triangle.
-                            best[i] = (a, uv_at(&q, &tri.uv, c));
+                            let w = weights_at(&q, c);
+                            best[i] = (a, uv_at(&tri.uv, w), (ti, w));
                         }
                     }
                 }
@@ -194,8 +201,18 @@ impl BakeScene {
             let emit_tex = mat
                 .emissive_texture
                 .map(|t| &scene.textures[t.index as usize]);
-            let means = (base_tex.is_some() || emit_tex.is_some()).then(|| {
-                texture_means(scene, fi, &basis, texel_size, (w, h), [base_tex, emit_tex])
+            let face_masks = (!masks.is_empty()).then_some(&masks);
+            let masked = face_masks.is_some_and(|m| m.is_masked(f.triangles.start));
+            let means = (base_tex.is_some() || emit_tex.is_some() || masked).then(|| {
+                texture_means(
+                    scene,
+                    fi,
+                    &basis,
+                    texel_size,
+                    (w, h),
+                    [base_tex, emit_tex],
+                    face_masks.filter(|_| masked),
+                )
             });
             let mut spec_tex = (Vec3::ZERO, 0f64);
             for i in 0..w * h {
@@ -208,21 +225,34 @@ impl BakeScene {
                 // covered piece for a sliver no sample point fell on).
                 let uv = best[i].1;
                 let mean = |k: usize, tex: Option<&Texture>| match &means {
-                    Some(m) if m.weight[i] > 0.0 => m.sum[k][i] / m.weight[i],
+                    Some(m) if m.open[i] > 0.0 => m.sum[k][i] / m.open[i],
                     _ => tex.map_or(Vec3::ONE, |t| t.bilinear(uv).truncate()),
                 };
+                // The share of the covered part the alpha mask leaves (1 without a mask): a
+                // sliver no sample point fell on is kept or cut whole by its best piece.
+                let coverage = match &means {
+                    _ if !masked => 1.0,
+                    Some(m) if m.weight[i] > 0.0 => m.open[i] / m.weight[i],
+                    _ => {
+                        let (tri, w) = best[i].2;
+                        if masks.cuts(tri, w) { 0.0 } else { 1.0 }
+                    }
+                };
+                if coverage <= 0.0 {
+                    continue;
+                }
                 let mut base = baked[f.material as usize].diffuse;
                 if base_tex.is_some() {
                     let t = mean(0, base_tex);
                     base *= t;
-                    spec_tex.0 += t * area[i] as f32;
-                    spec_tex.1 += area[i];
+                    spec_tex.0 += t * (area[i] as f32 * coverage);
+                    spec_tex.1 += area[i] * f64::from(coverage);
                 }
                 let mut emit = mat.emission;
                 if emit_tex.is_some() {
                     emit *= mean(1, emit_tex);
                 }
-                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32;
+                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32 * coverage;
                 for side in 0..2 {
                     let k = bf.texel_base as usize + side * w * h + i;
                     texel_area[k] = a;
@@ -259,6 +289,7 @@ impl BakeScene {
             lobes,
             materials: baked,
             suns,
+            masks,
             texel_size,
             warnings,
         })
@@ -312,10 +343,12 @@ impl BakeScene {
 pub const TEXTURE_SAMPLES: std::ops::RangeInclusive<u32> = 4..=8;
 
 /// Per texel of one chart side: the sums of the base-colour and emissive texture values over
-/// the sample points that fall on the face, each weighted by the area it stands for, and the
-/// sum of those weights.
+/// the sample points that fall on the face where its alpha mask leaves a surface, each
+/// weighted by the area it stands for, the sum of those weights (`open`), and the sum of the
+/// weights of all points on the face (`weight`).
 struct TextureMeans {
     sum: [Vec<Vec3>; 2],
+    open: Vec<f32>,
     weight: Vec<f32>,
 }
 
@@ -330,13 +363,23 @@ fn texture_means(
     texel_size: f32,
     (w, h): (usize, usize),
     textures: [Option<&Texture>; 2],
+    masks: Option<&AlphaMasks>,
 ) -> TextureMeans {
     let mut m = TextureMeans {
         sum: [vec![Vec3::ZERO; w * h], vec![Vec3::ZERO; w * h]],
+        open: vec![0.0; w * h],
         weight: vec![0.0; w * h],
     };
     let xf = scene.to_vlf;
-    for tri in scene.face_triangles(fi) {
+    let first = scene.faces[fi].triangles.start;
+    // The mask reads the base-colour texture: its density counts even when only the mask does.
+    let mask_tex = masks.and_then(|_| {
+        scene.materials[scene.faces[fi].material as usize]
+            .base_color_texture
+            .map(|t| &scene.textures[t.index as usize])
+    });
+    for (k, tri) in scene.face_triangles(fi).iter().enumerate() {
+        let ti = first + k as u32;
         let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
         let (e1, e2) = (q[1] - q[0], q[2] - q[0]);
         let det = e1.perp_dot(e2);
@@ -349,6 +392,7 @@ fn texture_means(
         let du_dy = (d2 * e1.x - d1 * e2.x) / det;
         let density = textures
             .iter()
+            .chain(std::iter::once(&mask_tex))
             .flatten()
             .map(|t| {
                 let size = Vec2::new(t.width as f32, t.height as f32);
@@ -381,13 +425,17 @@ fn texture_means(
                         if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
                             continue;
                         }
+                        m.weight[i] += wgt;
+                        if masks.is_some_and(|mk| mk.cuts(ti, [1.0 - b1 - b2, b1, b2])) {
+                            continue;
+                        }
                         let uv = tri.uv[0] * (1.0 - b1 - b2) + tri.uv[1] * b1 + tri.uv[2] * b2;
                         for (k, t) in textures.iter().enumerate() {
                             if let Some(t) = t {
                                 m.sum[k][i] += t.bilinear(uv).truncate() * wgt;
                             }
                         }
-                        m.weight[i] += wgt;
+                        m.open[i] += wgt;
                     }
                 }
             }
@@ -454,18 +502,24 @@ fn polygon_area_centroid(poly: &[Vec2]) -> (f64, Vec2) {
     (a2.abs() * 0.5, c)
 }
 
-/// Interpolates uv at chart point `c` of triangle `q`.
-fn uv_at(q: &[Vec2; 3], uv: &[Vec2; 3], c: Vec2) -> Vec2 {
+/// The barycentric weights (of corners 0, 1, 2) of chart point `c` in triangle `q` (corner 0
+/// alone for a degenerate triangle).
+fn weights_at(q: &[Vec2; 3], c: Vec2) -> [f32; 3] {
     let e1 = q[1] - q[0];
     let e2 = q[2] - q[0];
     let d = c - q[0];
     let det = e1.perp_dot(e2);
     if det.abs() < 1e-20 {
-        return uv[0];
+        return [1.0, 0.0, 0.0];
     }
     let b1 = d.perp_dot(e2) / det;
     let b2 = e1.perp_dot(d) / det;
-    uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
+    [1.0 - b1 - b2, b1, b2]
+}
+
+/// Interpolates uv with barycentric weights `w`.
+fn uv_at(uv: &[Vec2; 3], w: [f32; 3]) -> Vec2 {
+    uv[0] * w[0] + uv[1] * w[1] + uv[2] * w[2]
 }
 
 #[cfg(test)]

@@ -202,6 +202,13 @@ impl FileGatherSampling {
     }
 }
 
+/// What lets light through each material ([`crate::format::shading::FileSurface`], one per
+/// material; written, required, when a material masks or is a pane).
+pub const KIND_SURFACE: u32 = 10;
+/// Texture alpha: IEEE binary16 (2 bytes) per texel, the `texels` section's texels; written,
+/// required, when a material masks.
+pub const KIND_TEXTURE_ALPHA: u32 = 11;
+
 /// Section names.
 pub const SECTION_TRIANGLES: &str = "triangles";
 pub const SECTION_FACES: &str = "faces";
@@ -211,6 +218,8 @@ pub const SECTION_UVS: &str = "uvs";
 pub const SECTION_TEXTURES: &str = "textures";
 pub const SECTION_TEXELS: &str = "texels";
 pub const SECTION_GATHER_SAMPLING: &str = "gather_sampling";
+pub const SECTION_SURFACES: &str = "surfaces";
+pub const SECTION_TEXTURE_ALPHA: &str = "texture_alpha";
 /// Optional pair: both present (scenes with mirror/mixed faces) or both absent.
 pub const SECTION_TILE_INDEX: &str = "tile_index";
 pub const SECTION_TILE_RADIANCE: &str = "tile_radiance";

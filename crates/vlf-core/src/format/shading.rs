@@ -43,6 +43,59 @@ pub struct FileTexture {
     pub wrap_t: u32,
 }
 
+/// What lets light through a material (32 bytes; every field a 4-byte little-endian word):
+/// section `surfaces`, one per material, written only when a material masks or is a pane
+/// (files without it hold opaque materials).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileSurface {
+    /// [`SurfaceMaterial::alpha_cutoff`] (0: no mask).
+    pub alpha_cutoff: f32,
+    /// [`SurfaceMaterial::alpha_factor`].
+    pub alpha_factor: f32,
+    /// Bit 0: the mask reads its texture with NEAREST filtering; other bits 0.
+    pub flags: u32,
+    /// Reserved, written 0.
+    pub reserved: [u32; 5],
+}
+
+/// [`FileSurface::flags`] bit: NEAREST mask filtering.
+pub const SURFACE_NEAREST: u32 = 1;
+
+impl From<&SurfaceMaterial> for FileSurface {
+    fn from(m: &SurfaceMaterial) -> Self {
+        FileSurface {
+            alpha_cutoff: m.alpha_cutoff,
+            alpha_factor: m.alpha_factor,
+            flags: if m.alpha_nearest { SURFACE_NEAREST } else { 0 },
+            reserved: [0; 5],
+        }
+    }
+}
+
+impl FileSurface {
+    /// Writes the record into `m`; `Err` names what is not a record a writer produces.
+    pub fn apply(&self, m: &mut SurfaceMaterial) -> Result<(), String> {
+        if self.flags & !SURFACE_NEAREST != 0 || self.reserved != [0; 5] {
+            return Err(format!(
+                "unknown flags {:#x} or reserved words {:?} set",
+                self.flags, self.reserved
+            ));
+        }
+        m.alpha_cutoff = self.alpha_cutoff;
+        m.alpha_factor = self.alpha_factor;
+        m.alpha_nearest = self.flags & SURFACE_NEAREST != 0;
+        Ok(())
+    }
+}
+
+/// Whether `s` needs the `surfaces` section (a material that is not plainly opaque).
+pub(super) fn has_surfaces(s: &Shading) -> bool {
+    s.materials
+        .iter()
+        .any(|m| FileSurface::from(m) != FileSurface::from(&SurfaceMaterial::opaque_default()))
+}
+
 impl From<&SurfaceMaterial> for FileMaterial {
     fn from(m: &SurfaceMaterial) -> Self {
         FileMaterial {
@@ -65,6 +118,7 @@ impl From<&FileMaterial> for SurfaceMaterial {
             base_color_texture: m.base_color_texture,
             emissive_texture: m.emissive_texture,
             specular_alpha: m.specular_alpha,
+            ..SurfaceMaterial::opaque_default()
         }
     }
 }
@@ -138,5 +192,6 @@ pub(super) fn unpack(
         uvs: uvs.iter().map(<[[f32; 2]; 3]>::from).collect(),
         textures,
         texels,
+        alpha: Vec::new(),
     })
 }

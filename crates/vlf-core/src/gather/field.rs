@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use crate::bake::BakeScene;
 use crate::directions::DirectionSet;
-use crate::lightfield::{BakeFace, TileIndex};
+use crate::lightfield::{AlphaMasks, BakeFace, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::psf::PsfFrame;
@@ -425,11 +425,17 @@ impl<'a> Contacts<'a> {
 /// point lies on its face.
 pub struct Charts {
     tris: Vec<Vec<[Vec2; 3]>>,
+    /// Index of each face's first triangle in the scene (its triangles follow it).
+    first: Vec<u32>,
+    /// The triangles' alpha masks (by scene index): a point where they leave no surface is
+    /// not on the face.
+    masks: AlphaMasks,
 }
 
 impl Charts {
     pub fn new(scene: &Scene, atlas: &BakeScene) -> Self {
         let xf = scene.to_vlf;
+        let first = scene.faces.iter().map(|f| f.triangles.start).collect();
         let tris = atlas
             .faces
             .iter()
@@ -442,7 +448,17 @@ impl Charts {
                     .collect()
             })
             .collect();
-        Self { tris }
+        Self {
+            tris,
+            first,
+            masks: atlas.masks.clone(),
+        }
+    }
+
+    /// The scene index of the first triangle of `face` (the GPU gather tags each chart
+    /// triangle with its own).
+    pub fn first_triangle(&self, face: usize) -> u32 {
+        self.first[face]
     }
 
     /// The chart-space triangles of `face` (what the GPU gather uploads).
@@ -450,13 +466,23 @@ impl Charts {
         &self.tris[face]
     }
 
-    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
+    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles, where its
+    /// alpha mask (if any) leaves a surface: the first triangle that holds it decides.
     pub fn inside(&self, face: usize, c: Vec2) -> bool {
-        self.tris[face].iter().any(|q| {
+        for (k, q) in self.tris[face].iter().enumerate() {
             let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
             let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
-            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
-        })
+            if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
+                let sum = d0 + d1 + d2;
+                if self.masks.is_empty() || sum == 0.0 {
+                    return true;
+                }
+                // d1, d2, d0 are twice the areas opposite corners 0, 1, 2.
+                let tri = self.first[face] + k as u32;
+                return !self.masks.cuts(tri, [d1 / sum, d2 / sum, d0 / sum]);
+            }
+        }
+        false
     }
 }
 

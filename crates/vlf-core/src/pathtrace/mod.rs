@@ -259,7 +259,9 @@ impl<'a> PreparedScene<'a> {
                 light: NONE,
             })
             .collect();
-        let mut bvh = Bvh::build(tris);
+        let mut bvh = Bvh::build(tris).with_masks(std::sync::Arc::new(
+            crate::lightfield::AlphaMasks::from_scene(scene),
+        ));
         let lights = LightSet::build(scene, &materials, &mut bvh.triangles);
         let uvs = bvh
             .triangles
@@ -287,11 +289,12 @@ impl<'a> PreparedScene<'a> {
         uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
     }
 
-    /// Emitted radiance of leaf-order triangle `tri` at barycentrics `(b1, b2)` (front face).
+    /// Emitted radiance of leaf-order triangle `tri` at barycentrics `(b1, b2)` (front face;
+    /// none where its alpha mask leaves no surface).
     pub fn emission(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
         let t = &self.bvh.triangles[tri as usize];
         let m = &self.materials[t.material as usize];
-        if m.emission == Vec3::ZERO {
+        if m.emission == Vec3::ZERO || self.bvh.masks().cuts_at(t.prim, b1, b2) {
             return Vec3::ZERO;
         }
         m.emission * self.texture(m.emissive_texture, self.uv_at(tri, b1, b2))

@@ -29,6 +29,8 @@ pub enum BakeBuffer {
     Triangles,
     /// `BakeFace` per face.
     Faces,
+    /// The triangles' alpha masks (`AlphaMasks::words`).
+    AlphaMasks,
     /// Texel centres, face id in `w`.
     TexelCenter,
     /// Indices of the texels the gather visits.
@@ -69,6 +71,7 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Triangles => "Bake::triangles",
             BakeBuffer::Faces => "Bake::faces",
+            BakeBuffer::AlphaMasks => "Bake::alpha_masks",
             BakeBuffer::TexelCenter => "Bake::texel_center",
             BakeBuffer::ActiveTexels => "Bake::active_texels",
             BakeBuffer::Unshot => "Bake::unshot",
@@ -93,6 +96,7 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Triangles => "the prepared triangles",
             BakeBuffer::Faces => "the prepared faces",
+            BakeBuffer::AlphaMasks => "the alpha masks",
             BakeBuffer::TexelCenter => "the texel centres",
             BakeBuffer::ActiveTexels => "the active texel list",
             BakeBuffer::Unshot => "the unshot radiance (texels and mirror tiles)",
@@ -127,6 +131,7 @@ impl BakeBuffer {
             self,
             BakeBuffer::Triangles
                 | BakeBuffer::Faces
+                | BakeBuffer::AlphaMasks
                 | BakeBuffer::TexelCenter
                 | BakeBuffer::ActiveTexels
                 | BakeBuffer::Unshot
@@ -457,7 +462,7 @@ impl BakePlan {
         let cells = u64::from(self.resolution).pow(2);
         let crossings = cells * u64::from(self.crossings_per_ray());
         let v4 = size_of::<[f32; 4]>() as u64;
-        let mut out = Vec::with_capacity(15 + 3 * self.chunks.len());
+        let mut out = Vec::with_capacity(16 + 3 * self.chunks.len());
         for (k, c) in self.chunks.iter().enumerate() {
             let item = size_of::<ReflectItem>() as u64;
             out.extend([
@@ -469,6 +474,7 @@ impl BakePlan {
         out.extend([
             one(B::Triangles, self.triangles, each(&scene.triangles)),
             one(B::Faces, self.faces, each(&scene.faces)),
+            one(B::AlphaMasks, scene.masks.word_count() as u64, 4),
             one(B::TexelCenter, self.texels, v4),
             one(B::ActiveTexels, self.active_texels, 4),
             one(B::Unshot, self.texels + self.mirror.tile_values, v4),

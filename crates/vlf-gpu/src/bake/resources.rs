@@ -290,6 +290,7 @@ impl Allocator<'_> {
 /// The buffers of one scene that are not split by direction.
 pub(super) struct SceneBuffers {
     pub triangles: wgpu::Buffer,
+    pub alpha_masks: wgpu::Buffer,
     pub faces: wgpu::Buffer,
     pub texel_center: wgpu::Buffer,
     pub active_texels: wgpu::Buffer,
@@ -385,6 +386,7 @@ impl SceneResources {
         let p = |b| plan.buffer(b);
         let b = SceneBuffers {
             triangles: alloc.init(p(B::Triangles), &scene.triangles),
+            alpha_masks: alloc.init(p(B::AlphaMasks), &scene.masks.words()),
             faces: alloc.init(p(B::Faces), &scene.faces),
             texel_center: alloc.init(p(B::TexelCenter), &centers),
             active_texels: alloc.init(p(B::ActiveTexels), &host.active),
@@ -417,6 +419,7 @@ impl SceneResources {
                         cell_count: &b.cell_count,
                         cells: &b.cells,
                         overflow: &b.overflow,
+                        alpha_masks: &b.alpha_masks,
                     },
                 ),
                 reflect: pipelines.reflect.bind_group(

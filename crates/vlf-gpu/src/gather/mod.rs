@@ -174,6 +174,7 @@ impl GatherPipelines {
                 storage_entry(1, true),
                 storage_entry(2, true),
                 uniform_entry::<RtSceneInfo>(3, false),
+                storage_entry(6, true),
             ],
         });
         let vis = wgpu::ShaderStages::COMPUTE;
@@ -425,6 +426,7 @@ pub fn final_gather_with(
                 entry(1, &gpu_scene.triangles),
                 entry(2, &gpu_scene.blob),
                 entry(3, &gpu_scene.info),
+                entry(6, &gpu_scene.masks),
             ],
         });
         let [ind, dir] = Estimator::of(
@@ -751,9 +753,11 @@ fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 3]) {
     let mut tris: Vec<[f32; 4]> = Vec::new();
     for fi in 0..atlas.faces.len() {
         data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-        for t in grid.charts.triangles(fi) {
+        let first = grid.charts.first_triangle(fi);
+        for (k, t) in grid.charts.triangles(fi).iter().enumerate() {
             tris.push([t[0].x, t[0].y, t[1].x, t[1].y]);
-            tris.push([t[2].x, t[2].y, 0.0, 0.0]);
+            // The scene triangle, whose alpha mask `chart_inside` reads.
+            tris.push([t[2].x, t[2].y, f32::from_bits(first + k as u32), 0.0]);
         }
     }
     data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);

@@ -81,7 +81,7 @@ pub fn build_bvh(lf: &LightField) -> Bvh {
             light: vlf_core::pathtrace::NONE,
         })
         .collect();
-    Bvh::build(tris)
+    Bvh::build(tris).with_masks(std::sync::Arc::new(lf.alpha_masks()))
 }
 
 /// The traced branch's scene on the GPU: the BVH and the corner uvs in leaf order

@@ -24,8 +24,12 @@ impl PositionPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        let (pass_layout, bind_group) =
-            geometry_pass_layout(device, "Position", &[&lf.triangles, &lf.uvs]);
+        let (pass_layout, bind_group) = geometry_pass_layout(
+            device,
+            "Position",
+            &[&lf.triangles, &lf.uvs],
+            &lf.alpha_masks,
+        );
         let depth = wgpu::DepthStencilState {
             format: depth_format,
             depth_write_enabled: Some(false),
@@ -41,6 +45,7 @@ impl PositionPass {
             &pass_layout,
             &[POSITION_FORMAT, UV_FORMAT],
             depth,
+            lf.has_masks,
         );
         Self {
             pipeline,

@@ -80,6 +80,13 @@ pub struct GpuLightField {
     /// `TEXCOORD_0` per triangle corner (vec2, three per triangle, in the order of
     /// [`triangles`](Self::triangles)).
     pub uvs: wgpu::Buffer,
+    /// The alpha masks of the light field's triangles in its own order
+    /// (`LightField::alpha_masks`, `AlphaMasks::words`): passes 3, 4 and 5 discard the
+    /// fragments where they leave no surface, each uploaded triangle naming its index in the
+    /// light field in `BakeTriangle::_pad0`; pass 5's mirror BVH looks them up by `prim`.
+    pub alpha_masks: wgpu::Buffer,
+    /// Whether a triangle has a mask (else the passes' mask code is not compiled in).
+    pub has_masks: bool,
     /// Face records (see the module docs).
     pub faces_view: wgpu::TextureView,
     /// The irradiance atlas (see the module docs).
@@ -348,7 +355,21 @@ impl GpuLightField {
                 .position(|&i| stencil(&lf.triangles[i]) >= s)
                 .unwrap_or(order.len()) as u32
         });
-        let tris: Vec<BakeTriangle> = order.iter().map(|&i| lf.triangles[i]).collect();
+        // `_pad0` (written 0 in files, unused by the bake) carries the triangle's index in the
+        // light field: the alpha masks are in that order.
+        let tris: Vec<BakeTriangle> = order
+            .iter()
+            .map(|&i| BakeTriangle {
+                _pad0: i as u32,
+                ..lf.triangles[i]
+            })
+            .collect();
+        let masks = lf.alpha_masks();
+        let has_masks = !masks.is_empty();
+        let alpha_masks = buffer(
+            "Renderer::alpha_masks",
+            bytemuck::cast_slice(&masks.words()),
+        )?;
         let corner_uvs: Vec<[[f32; 2]; 3]> = order.iter().map(|&i| sh.uvs[i]).collect();
         let triangles = buffer(
             "Renderer::triangles",
@@ -463,6 +484,8 @@ impl GpuLightField {
             stencil_starts,
             face_count: lf.faces.len() as u32,
             uvs,
+            alpha_masks,
+            has_masks,
             faces_view,
             atlas_view,
             texture_records_view,

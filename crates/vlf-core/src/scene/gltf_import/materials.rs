@@ -9,7 +9,7 @@ use gltf::json::{self, Value, validation::Checked};
 use super::{Importer, element, short};
 use crate::scene::texture::{self, FilterMode, Texture, WrapMode};
 use crate::scene::uri;
-use crate::scene::{Material, MaterialKind, SceneError, TexRef};
+use crate::scene::{AlphaMode, Material, MaterialKind, SceneError, TexRef, Transparency};
 
 /// Decoded textures larger than this many texels are rejected (16 bytes each).
 const MAX_TEXELS: u64 = 1 << 25;
@@ -60,13 +60,7 @@ impl Importer<'_> {
         // (mirror, directional tiles, or diffuse) depends on its direction set (`bake::glossy`).
         let kind = MaterialKind::from_metallic(metallic);
 
-        if let Checked::Valid(mode) = m.alpha_mode
-            && mode != json::material::AlphaMode::Opaque
-        {
-            self.warn(format!(
-                "{el}: alphaMode {mode:?} is ignored (treated as opaque)"
-            ));
-        }
+        let transparency = self.transparency(&m, &el);
         self.warn_material_extensions(i, &el);
 
         let base_color_texture = match &pbr.base_color_texture {
@@ -87,7 +81,34 @@ impl Importer<'_> {
             kind,
             metallic,
             roughness,
+            transparency,
         })
+    }
+
+    /// `alphaMode`, `alphaCutoff` and baseColorFactor.a (`Transparency`).
+    fn transparency(&mut self, m: &json::Material, el: &str) -> Transparency {
+        let mode = match m.alpha_mode {
+            Checked::Valid(json::material::AlphaMode::Mask) => AlphaMode::Mask,
+            Checked::Valid(json::material::AlphaMode::Blend) => AlphaMode::Blend,
+            Checked::Valid(json::material::AlphaMode::Opaque) => AlphaMode::Opaque,
+            Checked::Invalid => {
+                self.warn(format!("{el}: unknown alphaMode; treated as OPAQUE"));
+                AlphaMode::Opaque
+            }
+        };
+        let mut t = Transparency {
+            alpha_mode: mode,
+            ..Transparency::default()
+        };
+        if mode == AlphaMode::Opaque {
+            return t;
+        }
+        let a = m.pbr_metallic_roughness.base_color_factor.0[3];
+        t.alpha = self.clamp_factor(el, "baseColorFactor alpha", a, 0.0, 1.0);
+        if let Some(c) = m.alpha_cutoff {
+            t.alpha_cutoff = self.clamp_factor(el, "alphaCutoff", c.0, 0.0, f32::MAX);
+        }
+        t
     }
 
     /// Warnings for material extensions that change nothing here, and for
@@ -298,6 +319,7 @@ impl Importer<'_> {
             kind: MaterialKind::Mirror,
             metallic: 1.0,
             roughness: 1.0,
+            transparency: Transparency::default(),
         });
         self.default_material = Some(i);
         i
