@@ -61,6 +61,7 @@
 #import "common/mirror_tiles.wgsl"
 #import "common/sampling.wgsl"
 #import "common/hash.wgsl"
+#import "common/pane.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
@@ -76,6 +77,7 @@ const FLAG_DIFFUSE: u32 = 0x100u;
 const FLAG_BASE_TEXTURE: u32 = 0x200u;
 const FLAG_EMISSIVE: u32 = 0x400u;
 const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
+const FLAG_PANE: u32 = 0x1000u;
 // Whether the pixels this pipeline shades may show base-colour / emissive textures. Pipeline
 // constants rather than flags: llvmpipe runs divergent branches under a mask at every pixel, so
 // texture code no pixel needs is compiled out instead of skipped.
@@ -278,10 +280,12 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
     var dir = dir0;
     var throughput = throughput0;
     var depth = 1u;
+    // The diffuse part of panes passed on the way.
+    var seen = vec3<f32>(0.0);
     loop {
         let hit = trace(Ray(origin, 0.0, dir, 3.40282347e38), false);
         if hit.tri == NONE {
-            return vec4<f32>(throughput * g.sky.rgb, 0.0);
+            return vec4<f32>(seen + throughput * g.sky.rgb, 0.0);
         }
         let t = triangles[hit.tri];
         let hface = t.material;
@@ -294,12 +298,23 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
             let k = 3u * hit.tri;
             huv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
         }
+        if (hf.flags & FLAG_PANE) != 0u && depth < MIRROR_DEPTH {
+            // A pane along the chain: its diffuse part, then on straight through it.
+            let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
+            seen = seen + throughput * surface_radiance_uv(hface, hf, hside, q, huv);
+            let ior = bitcast<f32>(face_texel(hface, 6u).z);
+            throughput = throughput
+                * (specular_reflectance(hface, hf, huv) * (1.0 - pane_reflectance(dot(dir, n), ior)));
+            origin = offset_origin(q, select(-n, n, dot(n, dir) > 0.0));
+            depth += 1u;
+            continue;
+        }
         if hf.kind == FACE_DIFFUSE {
             let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
-            return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, huv), 0.0);
+            return vec4<f32>(seen + throughput * surface_radiance_uv(hface, hf, hside, q, huv), 0.0);
         }
         if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
-            return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+            return vec4<f32>(seen, 1.0);
         }
         throughput = throughput * specular_reflectance(hface, hf, huv);
         let off = select(-n, n, dot(n, -dir) > 0.0);
@@ -334,6 +349,16 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, pixel: u32,
     let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
     let c = specular_reflectance(face, f, uv);
     let origin = offset_origin(p, side);
+    if (f.flags & FLAG_PANE) != 0u {
+        // A pane: its reflection (pane weight × R, untinted) and what lies behind it (c × T);
+        // the tiles stand in for the reflection only.
+        let pane = face_texel(face, 6u);
+        let r = pane_reflectance(dot(d, n), bitcast<f32>(pane.z));
+        let reflected = trace_chain(origin, normalize(d - 2.0 * dot(d, n) * n),
+            vec3<f32>(bitcast<f32>(pane.w) * r));
+        let passed = trace_chain(offset_origin(p, -side), d, c * (1.0 - r));
+        return vec4<f32>(reflected.rgb + passed.rgb, reflected.w);
+    }
     let alpha = bitcast<f32>(face_texel(face, 7u).w);
     if alpha <= 0.0 {
         return trace_chain(origin, normalize(d - 2.0 * dot(d, n) * n), c);

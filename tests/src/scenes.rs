@@ -62,6 +62,7 @@ pub fn striped_screen(screen: bool) -> Scene {
                 alpha_mode: AlphaMode::Mask,
                 alpha_cutoff: 0.5,
                 alpha: 1.0,
+                ..Transparency::default()
             },
         });
         let p = PERIODS;
@@ -104,4 +105,68 @@ pub fn central_mean(scene: &Scene, prep: &BakeScene, irr: &[[f32; 4]], face: usi
         area += f64::from(a);
     }
     (sum / area) as f32
+}
+
+/// A black 1 × 1 receiver at y = 0 facing up under a 4 × 4 horizontal glass pane at y =
+/// `height` (transmission 1, white, roughness 0: a pure thin pane of IOR 1.5), or without
+/// the pane, over a black 4 × 4 ground at y = −0.01 (so that what the pane's underside
+/// reflects onto the receiver is black, not the sky below).
+pub fn pane_over_floor(pane: bool, height: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let floor = b.diffuse("receiver", Vec3::ZERO, Vec3::ZERO);
+    let ground = b.diffuse("ground", Vec3::ZERO, Vec3::ZERO);
+    let square = |y: f32, r: f32| {
+        [
+            Vec3::new(-r, y, -r),
+            Vec3::new(-r, y, r),
+            Vec3::new(r, y, r),
+            Vec3::new(r, y, -r),
+        ]
+    };
+    b.quad(square(0.0, 0.5), floor);
+    b.quad(square(-0.01, 2.0), ground);
+    if pane {
+        let glass = b.material(Material {
+            name: "glass".into(),
+            base_color: Vec3::ONE,
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            double_sided: true,
+            kind: MaterialKind::Diffuse,
+            metallic: 0.0,
+            roughness: 0.0,
+            transparency: Transparency {
+                transmission: 1.0,
+                ..Transparency::default()
+            },
+        });
+        b.quad(square(height, 2.0), glass);
+    }
+    b.build("pane over floor")
+}
+
+/// The irradiance at the centre of `pane_over_floor(true, height)`'s receiver under a sky of
+/// radiance 1: ∫ T(θ) cos θ dω over the directions through the pane, ∫ cos θ dω over the
+/// others (a 2,000 × 2,000 midpoint quadrature in (cos θ, φ)). What the pane reflects onto
+/// the receiver is the black ground's (for `height` 0.02, all directions but the last 1.4°
+/// above the horizon, which carry 0.06 % of the sky's light).
+pub fn pane_sky_irradiance(height: f32) -> f64 {
+    let n = 2000;
+    let mut e = 0f64;
+    for i in 0..n {
+        let mu = (i as f64 + 0.5) / n as f64;
+        let sin = (1.0 - mu * mu).sqrt();
+        let t = 1.0 - f64::from(vlf_core::scene::pane_reflectance(mu as f32, 1.5));
+        for j in 0..n {
+            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / n as f64;
+            // Where the direction meets the pane's plane.
+            let r = f64::from(height) * sin / mu;
+            let (x, z) = (r * phi.cos(), r * phi.sin());
+            let through = x.abs() <= 2.0 && z.abs() <= 2.0;
+            // dω = dμ dφ; integrand cos θ = μ.
+            e += mu * if through { t } else { 1.0 };
+        }
+    }
+    e * std::f64::consts::TAU / (n as f64 * n as f64)
 }

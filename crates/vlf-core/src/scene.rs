@@ -275,6 +275,11 @@ pub struct Transparency {
     pub alpha_cutoff: f32,
     /// baseColorFactor.a, clamped to [0, 1].
     pub alpha: f32,
+    /// `KHR_materials_transmission`'s transmissionFactor in [0, 1]: the share of the
+    /// non-metal part that is a thin glass pane ([`Material::pane_weight`]).
+    pub transmission: f32,
+    /// `KHR_materials_ior` (1.5 when absent): the pane's index of refraction.
+    pub ior: f32,
 }
 
 impl Default for Transparency {
@@ -283,8 +288,32 @@ impl Default for Transparency {
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,
             alpha: 1.0,
+            transmission: 0.0,
+            ior: DEFAULT_IOR,
         }
     }
+}
+
+/// The index of refraction of a pane without `KHR_materials_ior` (the extension's default).
+pub const DEFAULT_IOR: f32 = 1.5;
+
+/// The reflectance of a thin pane of index `ior` in air at incidence cosine `cos` (either
+/// side): both interfaces and their interreflections, Mitsuba's `thindielectric`,
+/// R = r + (1 − r)² r / (1 − r²) = 2r / (1 + r) with r the unpolarised Fresnel reflectance of
+/// one interface; the pane transmits T = 1 − R straight through (no refraction). The f32
+/// operations are those of `pane_reflectance` in `shaders/common/pane.wgsl` (the propagation
+/// stays bit-identical on the GPU).
+pub fn pane_reflectance(cos: f32, ior: f32) -> f32 {
+    let c = cos.abs().min(1.0);
+    let s2 = (1.0 - c * c) / (ior * ior);
+    if s2 >= 1.0 {
+        return 1.0;
+    }
+    let ct = (1.0 - s2).sqrt();
+    let rs = (c - ior * ct) / (c + ior * ct);
+    let rp = (ior * c - ct) / (ior * c + ct);
+    let r = 0.5 * (rs * rs + rp * rp);
+    2.0 * r / (1.0 + r)
 }
 
 impl Transparency {
@@ -303,8 +332,14 @@ impl Transparency {
 }
 
 impl Material {
-    /// Weight of the Lambertian lobe: 1, 0 or `1 − specular`.
+    /// Weight of the Lambertian lobe: 1, 0 or `1 − specular` ([`non_metal_weight`](Self::non_metal_weight)),
+    /// less the pane's share of it ([`pane_weight`](Self::pane_weight)).
     pub fn diffuse_weight(&self) -> f32 {
+        self.non_metal_weight() - self.pane_weight()
+    }
+
+    /// Weight of the non-metal part (Lambert and pane together): 1, 0 or `1 − specular`.
+    pub fn non_metal_weight(&self) -> f32 {
         match self.kind {
             MaterialKind::Diffuse => 1.0,
             MaterialKind::Mirror => 0.0,
@@ -312,9 +347,17 @@ impl Material {
         }
     }
 
+    /// Weight of the thin glass pane (`KHR_materials_transmission`, shared conventions):
+    /// transmissionFactor × the non-metal weight (1 − metallic with the metallic thresholds of
+    /// [`MaterialKind`]). A pane reflects R(θ) as a mirror, untinted, and passes T(θ) = 1 − R(θ)
+    /// straight through tinted by the base colour ([`pane_reflectance`]).
+    pub fn pane_weight(&self) -> f32 {
+        self.transparency.transmission * self.non_metal_weight()
+    }
+
     /// Weight of the metal lobe: 0, 1 or `specular`.
     pub fn specular_weight(&self) -> f32 {
-        1.0 - self.diffuse_weight()
+        1.0 - self.non_metal_weight()
     }
 
     /// Lambertian albedo `diffuse_weight × base_color` (multiply by the base-colour
@@ -348,17 +391,40 @@ impl Material {
         } else {
             "mirror".to_string()
         };
-        let mut s = match self.kind {
-            MaterialKind::Diffuse => "diffuse".to_string(),
-            MaterialKind::Mirror => metal,
-            MaterialKind::Mixed { specular } => {
-                format!("{:.2} diffuse + {specular:.2} {metal}", 1.0 - specular)
-            }
+        let t = &self.transparency;
+        let (d, p, m) = (
+            self.diffuse_weight(),
+            self.pane_weight(),
+            self.specular_weight(),
+        );
+        let mut parts = Vec::new();
+        if d > 0.0 {
+            parts.push((d, "diffuse".to_string()));
+        }
+        if p > 0.0 {
+            parts.push((
+                p,
+                format!(
+                    "thin glass pane (IOR {}, transmission tinted by the base colour)",
+                    t.ior
+                ),
+            ));
+        }
+        if m > 0.0 {
+            parts.push((m, metal));
+        }
+        let mut s = match parts.as_slice() {
+            [] => "black".to_string(),
+            [(_, one)] => one.clone(),
+            _ => parts
+                .iter()
+                .map(|(w, n)| format!("{w:.2} {n}"))
+                .collect::<Vec<_>>()
+                .join(" + "),
         };
         if self.is_emissive() {
             s += ", emissive";
         }
-        let t = &self.transparency;
         match t.alpha_mode {
             AlphaMode::Opaque => {}
             AlphaMode::Mask => {

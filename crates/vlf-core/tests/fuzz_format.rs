@@ -94,7 +94,7 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
         materials: vec![
             SurfaceMaterial {
                 base_color: [0.8, 0.5, 0.2],
-                diffuse_weight: 1.0,
+                diffuse_weight: 0.5,
                 emission: [0.0; 3],
                 base_color_texture: tex(0),
                 emissive_texture: NO_TEXTURE,
@@ -104,6 +104,9 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 alpha_cutoff: if textures > 0 { 0.5 } else { 0.0 },
                 alpha_factor: 0.9,
                 alpha_nearest: textures > 0,
+                // And a pane (the `surfaces` section's pane words).
+                pane: 0.5,
+                ior: 1.45,
             },
             SurfaceMaterial {
                 base_color: [0.3; 3],

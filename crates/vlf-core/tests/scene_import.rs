@@ -754,11 +754,77 @@ fn texture_is_decoded_to_linear() {
             .iter()
             .any(|w| w.contains("KHR_texture_transform"))
     );
+    // Transmission is a thin pane now; roughness 1 (the glTF default) is not modelled.
+    assert_eq!(s.materials[0].pane_weight(), 1.0);
     assert!(
         s.warnings
             .iter()
-            .any(|w| w.contains("KHR_materials_transmission is ignored"))
+            .any(|w| w
+                .contains("rough transmission (roughness 1) is modelled as a smooth thin pane"))
     );
+    assert!(
+        !s.warnings
+            .iter()
+            .any(|w| w.contains("is ignored") && w.contains("transmission"))
+    );
+}
+
+#[test]
+fn transmission_and_ior_make_a_thin_pane() {
+    let dir = temp_dir("pane");
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b).replace(
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"pbrMetallicRoughness":{"metallicFactor":0}}]"#,
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],
+            "pbrMetallicRoughness":{"metallicFactor":0,"roughnessFactor":0},
+            "extensions":{"KHR_materials_transmission":{"transmissionFactor":0.75},
+                "KHR_materials_ior":{"ior":1.33}}},
+            {"pbrMetallicRoughness":{"metallicFactor":0.5,"roughnessFactor":0},
+            "extensions":{"KHR_materials_transmission":{"transmissionFactor":1,
+                "transmissionTexture":{"index":0}},
+                "KHR_materials_volume":{"thicknessFactor":0.1},"KHR_materials_ior":{"ior":0.5}}}]"#,
+    );
+    let path = write(&dir, "pane.gltf", b.document(Some(""), &rest));
+    let s = scene::load(&path).unwrap();
+    let (a, c) = (&s.materials[0], &s.materials[1]);
+    // transmissionFactor × (1 − metallic) of the non-metal part is the pane.
+    assert_eq!((a.pane_weight(), a.diffuse_weight()), (0.75, 0.25));
+    assert_eq!(a.transparency.ior, 1.33);
+    assert_eq!(
+        (c.pane_weight(), c.diffuse_weight(), c.specular_weight()),
+        (0.5, 0.0, 0.5)
+    );
+    assert_eq!(c.transparency.ior, scene::DEFAULT_IOR);
+    for part in [
+        "transmissionTexture is ignored",
+        "KHR_materials_volume is not modelled",
+        "ior 0.5 is not modelled",
+    ] {
+        assert!(
+            s.warnings.iter().any(|w| w.contains(part)),
+            "{part}: {:?}",
+            s.warnings
+        );
+    }
+    assert!(
+        a.model().contains("0.75 thin glass pane (IOR 1.33"),
+        "{}",
+        a.model()
+    );
+}
+
+#[test]
+fn window_room_glazed_has_panes_and_no_warnings() {
+    let s = load_shared("window-room-glazed/window-room-glazed.glb");
+    let glass = s
+        .materials
+        .iter()
+        .find(|m| m.name == "float glass")
+        .unwrap();
+    assert_eq!(glass.pane_weight(), 1.0);
+    assert_eq!(glass.diffuse_weight(), 0.0);
+    assert_eq!(glass.transparency.ior, 1.5);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
 
 #[test]

@@ -22,6 +22,42 @@ use crate::lightfield::{
 };
 use crate::scene::{MaterialKind, Scene, Texture};
 
+/// A face's thin glass pane as the propagation reads it (32 bytes; mirrors WGSL `PaneFace` of
+/// `shaders/common/pane.wgsl`): crossing the face along a direction at |cos θ| to its normal,
+/// light passes `tint × T(θ)` straight through (T = 1 − `scene::pane_reflectance`), and
+/// `weight × (1 − T(θ))` of it is the pane's mirror reflection. All zero: no pane.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PaneFace {
+    /// Pane weight × base colour × the base-colour texture's mean over the face.
+    pub tint: [f32; 3],
+    /// Pane weight ([`crate::scene::Material::pane_weight`]).
+    pub weight: f32,
+    /// Index of refraction.
+    pub ior: f32,
+    pub _pad: [f32; 3],
+}
+
+impl PaneFace {
+    /// What a crossing at |cos θ| = `cos` passes straight through (rgb; 0 without a pane).
+    pub fn transmittance(&self, cos: f32) -> Vec3 {
+        if self.weight <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let t = 1.0 - crate::scene::pane_reflectance(cos, self.ior);
+        Vec3::from(self.tint) * t
+    }
+
+    /// What a crossing at |cos θ| = `cos` passes straight through before the tint, `weight ×
+    /// T(θ)` (the tint absorbs the difference).
+    pub fn untinted(&self, cos: f32) -> f32 {
+        if self.weight <= 0.0 {
+            return 0.0;
+        }
+        self.weight * (1.0 - crate::scene::pane_reflectance(cos, self.ior))
+    }
+}
+
 /// Summary of a prepared scene (for logs and `--json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct PrepSummary {
@@ -49,8 +85,10 @@ pub struct BakeScene {
     /// Metal-lobe reflectance per face (rgb; zero for faces without directional tiles): the
     /// material's, times the base-colour texture's mean over the face where it has one.
     pub specular: Vec<[f32; 4]>,
+    /// Per face, its thin glass pane ([`PaneFace`]; zero for faces without one).
+    pub panes: Vec<PaneFace>,
     /// How each face's metal lobe is modelled ([`glossy::model`]): the faces with
-    /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors or glossy.
+    /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors, glossy or panes.
     pub lobes: Vec<SpecularModel>,
     /// Every material as baked (its lobe's model, the reflectance of its two parts), by
     /// material index: what a reader of the propagated field multiplies it by.
@@ -110,8 +148,18 @@ impl BakeScene {
             let width = ((extent.x / texel_size).ceil() as u32).max(1);
             let height = ((extent.y / texel_size).ceil() as u32).max(1);
             let origin = xf.apply(f.basis.origin);
+            let bm = &baked[f.material as usize];
             let (kind, specular) = match mat.kind {
-                _ if !baked[f.material as usize].model.has_tiles() => (FACE_DIFFUSE, 0.0),
+                _ if !bm.model.has_tiles() => (FACE_DIFFUSE, 0.0),
+                // A pane: its mirror part is the pane's, any metal lobe folded.
+                _ if matches!(bm.model, SpecularModel::Pane { .. }) => (
+                    if bm.diffuse_weight > 0.0 {
+                        FACE_MIXED
+                    } else {
+                        FACE_MIRROR
+                    },
+                    mat.pane_weight(),
+                ),
                 MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
                 MaterialKind::Mirror => (FACE_MIRROR, 1.0),
                 MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
@@ -147,6 +195,7 @@ impl BakeScene {
         // The metal lobe's reflectance is C = base colour × base-colour texture, like the
         // Lambert part's: faces with tiles reflect with the texture's mean over their covered
         // area (the renderer applies the texture per pixel).
+        let mut panes = vec![PaneFace::default(); scene.faces.len()];
         let mut specular: Vec<[f32; 4]> = scene
             .faces
             .iter()
@@ -263,8 +312,22 @@ impl BakeScene {
                     }
                 }
             }
-            if spec_tex.1 > 0.0 {
-                let c = Vec4::from(specular[fi]).truncate() * (spec_tex.0 / spec_tex.1 as f32);
+            let tex_mean = if spec_tex.1 > 0.0 {
+                spec_tex.0 / spec_tex.1 as f32
+            } else {
+                Vec3::ONE
+            };
+            if matches!(baked[f.material as usize].model, SpecularModel::Pane { .. }) {
+                // The pane passes t_w × T(θ) × C straight through; its reflection is untinted.
+                let w = mat.pane_weight();
+                panes[fi] = PaneFace {
+                    tint: (mat.base_color * tex_mean * w).to_array(),
+                    weight: w,
+                    ior: mat.transparency.ior,
+                    _pad: [0.0; 3],
+                };
+            } else if spec_tex.1 > 0.0 {
+                let c = Vec4::from(specular[fi]).truncate() * tex_mean;
                 specular[fi] = c.extend(0.0).into();
             }
         }
@@ -286,6 +349,7 @@ impl BakeScene {
             albedo,
             emission,
             specular,
+            panes,
             lobes,
             materials: baked,
             suns,

@@ -44,7 +44,7 @@ pub struct FileTexture {
 }
 
 /// What lets light through a material (32 bytes; every field a 4-byte little-endian word):
-/// section `surfaces`, one per material, written only when a material masks or is a pane
+/// section `surfaces`, one per material, written only when a material masks or has a pane
 /// (files without it hold opaque materials).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -55,8 +55,12 @@ pub struct FileSurface {
     pub alpha_factor: f32,
     /// Bit 0: the mask reads its texture with NEAREST filtering; other bits 0.
     pub flags: u32,
+    /// [`SurfaceMaterial::pane`] (0: no pane).
+    pub pane: f32,
+    /// [`SurfaceMaterial::ior`].
+    pub ior: f32,
     /// Reserved, written 0.
-    pub reserved: [u32; 5],
+    pub reserved: [u32; 3],
 }
 
 /// [`FileSurface::flags`] bit: NEAREST mask filtering.
@@ -68,7 +72,9 @@ impl From<&SurfaceMaterial> for FileSurface {
             alpha_cutoff: m.alpha_cutoff,
             alpha_factor: m.alpha_factor,
             flags: if m.alpha_nearest { SURFACE_NEAREST } else { 0 },
-            reserved: [0; 5],
+            pane: m.pane,
+            ior: m.ior,
+            reserved: [0; 3],
         }
     }
 }
@@ -76,7 +82,7 @@ impl From<&SurfaceMaterial> for FileSurface {
 impl FileSurface {
     /// Writes the record into `m`; `Err` names what is not a record a writer produces.
     pub fn apply(&self, m: &mut SurfaceMaterial) -> Result<(), String> {
-        if self.flags & !SURFACE_NEAREST != 0 || self.reserved != [0; 5] {
+        if self.flags & !SURFACE_NEAREST != 0 || self.reserved != [0; 3] {
             return Err(format!(
                 "unknown flags {:#x} or reserved words {:?} set",
                 self.flags, self.reserved
@@ -85,6 +91,8 @@ impl FileSurface {
         m.alpha_cutoff = self.alpha_cutoff;
         m.alpha_factor = self.alpha_factor;
         m.alpha_nearest = self.flags & SURFACE_NEAREST != 0;
+        m.pane = self.pane;
+        m.ior = self.ior;
         Ok(())
     }
 }

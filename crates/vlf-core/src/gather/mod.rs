@@ -20,6 +20,7 @@ pub mod field;
 pub mod guide;
 pub mod points;
 mod sampled;
+pub mod through;
 
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
@@ -30,7 +31,7 @@ use crate::directions::DirectionSet;
 use crate::lightfield::{GatherParams, ParamsError, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
-use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
+use crate::pathtrace::{Bvh, Hit, PreparedScene};
 use crate::scene::Scene;
 pub use field::Charts;
 use field::{Field, Tiles, chart_bilinear};
@@ -185,11 +186,7 @@ impl Gatherer<'_> {
         for (k, &p) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
             let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-            if !self
-                .ps
-                .bvh
-                .occluded(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY))
-            {
+            if through::ray_transmittance(self.ps, offset_ray_origin(p, n), dir) != Vec3::ZERO {
                 cells.add(u, 1.0);
                 any = true;
             }
@@ -201,14 +198,15 @@ impl Gatherer<'_> {
     /// leaves the scene brings nothing (the sky is the direct part).
     fn gather_ray(&self, p: Vec3, n: Vec3, u: Vec2) -> Vec3 {
         let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-        let hit = self
-            .ps
-            .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
-        if hit.is_hit() {
-            self.field_radiance(dir, &hit)
+        // Through panes: each sends back what it reflects (`through`).
+        let mut sum = Vec3::ZERO;
+        let traced = through::trace(self.ps, offset_ray_origin(p, n), dir, &mut |h, thr| {
+            sum += thr * self.field_radiance(dir, h)
+        });
+        if traced.hit.is_hit() {
+            sum + traced.throughput * self.field_radiance(dir, &traced.hit)
         } else {
-            Vec3::ZERO
+            sum
         }
     }
 
@@ -361,14 +359,15 @@ impl Gatherer<'_> {
                     let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
                     let origin = offset_ray_origin(p, n);
                     let target = offset_ray_origin(x, nl);
-                    if w > 0.0
-                        && !self
-                            .ps
-                            .bvh
-                            .occluded(&Ray::new(origin, target - origin, 1.0))
-                    {
+                    // Through panes, attenuated.
+                    let pass = if w > 0.0 {
+                        through::segment_transmittance(self.ps, origin, target - origin)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    if pass != Vec3::ZERO {
                         let le = self.ps.emission(e.tri, bary.x, bary.y);
-                        value = le * (w * cos_r / (pdf_l * fl));
+                        value = le * (w * cos_r / (pdf_l * fl)) * pass;
                     }
                 }
                 sum += value;
@@ -400,13 +399,11 @@ impl Gatherer<'_> {
                     let mut value = Vec3::ZERO;
                     for s in &lights.suns {
                         let cos = n.dot(s.to_sun);
-                        if cos > 0.0
-                            && !self
-                                .ps
-                                .bvh
-                                .occluded(&Ray::new(origin, s.to_sun, f32::INFINITY))
-                        {
-                            value += s.irradiance * cos;
+                        if cos > 0.0 {
+                            let pass = through::ray_transmittance(self.ps, origin, s.to_sun);
+                            if pass != Vec3::ZERO {
+                                value += s.irradiance * cos * pass;
+                            }
                         }
                     }
                     sun += value;
@@ -439,12 +436,11 @@ impl Gatherer<'_> {
     fn direct_ray(&self, p: Vec3, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
         let lights = &self.ps.lights;
         let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-        let hit = self
-            .ps
-            .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(p, n), dir, f32::INFINITY));
+        // Through panes, attenuated (`hit.t` the whole distance, for the light samples' pdf).
+        let traced = through::trace(self.ps, offset_ray_origin(p, n), dir, &mut |_, _| {});
+        let (hit, pass) = (traced.hit, traced.throughput);
         if !hit.is_hit() {
-            return self.sky * (std::f32::consts::PI / (fb * m));
+            return self.sky * (std::f32::consts::PI / (fb * m)) * pass;
         }
         let tri = &self.ps.bvh.triangles[hit.tri as usize];
         if tri.light == crate::pathtrace::NONE {
@@ -459,7 +455,7 @@ impl Gatherer<'_> {
         let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
         let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = self.ps.emission(hit.tri, hit.u, hit.v);
-        le * (w * std::f32::consts::PI / (fb * m))
+        le * (w * std::f32::consts::PI / (fb * m)) * pass
     }
 }
 
@@ -616,6 +612,11 @@ impl Grid {
             open: Openness {
                 bvh,
                 r_close: self.r_close(scene),
+                panes: scene
+                    .materials
+                    .iter()
+                    .map(|m| m.pane_weight() > 0.0)
+                    .collect(),
             },
             xf: scene.to_vlf,
             tex_face: &self.tex_face,

@@ -25,13 +25,16 @@ pub struct Openness<'a> {
     pub bvh: &'a Bvh,
     /// Probes along the normal that hit anything closer than this close the point (world).
     pub r_close: f32,
+    /// Per material (BVH triangles' `material`): whether it is a thin glass pane, which is
+    /// never the wall of a closed solid (a probe that meets one is open).
+    pub panes: Vec<bool>,
 }
 
 impl Openness<'_> {
     /// Whether point `p` of a surface whose lit side has unit normal `n` is open.
     pub fn is_open(&self, p: Vec3, n: Vec3) -> bool {
         let origin = offset_ray_origin(p, n);
-        if self.bvh.occluded(&Ray::new(origin, n, self.r_close)) {
+        if self.closes(origin, n) {
             return false;
         }
         // Inside a closed solid every direction reaches a back face; one open direction or
@@ -43,12 +46,50 @@ impl Openness<'_> {
             if !hit.is_hit() {
                 return true;
             }
-            let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
+            let tri = &self.bvh.triangles[hit.tri as usize];
+            if self.panes.get(tri.material as usize) == Some(&true) {
+                return true; // a pane: light passes
+            }
+            let [a, b, c] = tri.corners();
             if (b - a).cross(c - a).dot(d) <= 0.0 {
                 return true; // a front face
             }
         }
         false
+    }
+}
+
+impl Openness<'_> {
+    /// Whether anything but a pane lies within `r_close` of `origin` along `n` (a pane passes
+    /// light, so a gap under one is lit).
+    fn closes(&self, origin: Vec3, n: Vec3) -> bool {
+        if !self.panes.contains(&true) {
+            return self.bvh.occluded(&Ray::new(origin, n, self.r_close));
+        }
+        let (mut from, mut left) = (origin, self.r_close);
+        for _ in 0..super::through::MAX_PANES {
+            let hit = self.bvh.closest_hit(&Ray::new(from, n, left));
+            if !hit.is_hit() {
+                return false;
+            }
+            let tri = &self.bvh.triangles[hit.tri as usize];
+            if self.panes.get(tri.material as usize) != Some(&true) {
+                return true;
+            }
+            let [a, b, c] = tri.corners();
+            let q = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
+            let ng = (b - a).cross(c - a);
+            from = offset_ray_origin(
+                q,
+                if ng.dot(n) > 0.0 {
+                    ng.normalize()
+                } else {
+                    -ng.normalize()
+                },
+            );
+            left -= hit.t;
+        }
+        true
     }
 }
 

@@ -63,6 +63,12 @@ pub struct SurfaceMaterial {
     pub alpha_factor: f32,
     /// Whether the mask reads its texture with NEAREST filtering (else LINEAR).
     pub alpha_nearest: bool,
+    /// Weight of the thin glass pane ([`Material::pane_weight`]; 0: none): it reflects
+    /// `pane × R(θ)` as a mirror, untinted, and passes `pane × T(θ) × base colour × texture`
+    /// straight through ([`crate::scene::pane_reflectance`]).
+    pub pane: f32,
+    /// The pane's index of refraction.
+    pub ior: f32,
 }
 
 impl SurfaceMaterial {
@@ -86,6 +92,8 @@ impl SurfaceMaterial {
                 1.0
             },
             alpha_nearest: false,
+            pane: m.pane_weight(),
+            ior: m.transparency.ior,
         }
     }
 
@@ -102,6 +110,8 @@ impl SurfaceMaterial {
             alpha_cutoff: 0.0,
             alpha_factor: 1.0,
             alpha_nearest: false,
+            pane: 0.0,
+            ior: crate::scene::DEFAULT_IOR,
         }
     }
 
@@ -328,6 +338,18 @@ impl Shading {
                     el(),
                     format!("alpha factor {} is not in [0, 1]", m.alpha_factor),
                 );
+            }
+            if !(0.0..=1.0).contains(&m.pane) || m.diffuse_weight + m.pane > 1.0 + 1e-6 {
+                return bad(
+                    el(),
+                    format!(
+                        "pane weight {} is not in [0, 1 − diffuse weight {}]",
+                        m.pane, m.diffuse_weight
+                    ),
+                );
+            }
+            if !(m.ior.is_finite() && m.ior >= 1.0) {
+                return bad(el(), format!("index of refraction {} is below 1", m.ior));
             }
             for (slot, t) in [
                 ("base-colour", m.base_color_texture),

@@ -277,6 +277,11 @@ impl<'a> PreparedScene<'a> {
         }
     }
 
+    /// Whether a material has a thin glass pane (rays may then pass surfaces).
+    pub fn has_panes(&self) -> bool {
+        self.materials.iter().any(|m| m.w_pane > 0.0)
+    }
+
     fn texture(&self, index: Option<u32>, uv: Vec2) -> Vec3 {
         match index.and_then(|i| self.scene.textures.get(i as usize)) {
             Some(t) => t.bilinear(uv).truncate(),
@@ -353,6 +358,12 @@ impl<'a> PreparedScene<'a> {
                 break;
             };
             beta *= s.weight;
+            // Through a pane the path goes on from the surface's other side.
+            let origin = if s.transmitted {
+                offset_ray_origin(p, -n)
+            } else {
+                origin
+            };
             if depth >= RR_DEPTH {
                 let q = beta.max_element().min(RR_MAX_SURVIVAL);
                 if rng.next_f32() >= q {
@@ -430,14 +441,44 @@ impl<'a> PreparedScene<'a> {
             }
             let (f, _) = material::eval(m, color, n, wo, wi);
             let contrib = f * s.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
-            if contrib == Vec3::ZERO || self.bvh.occluded(&Ray::new(origin, wi, f32::INFINITY)) {
-                Vec3::ZERO
-            } else {
-                contrib
+            if contrib == Vec3::ZERO {
+                return Vec3::ZERO;
             }
+            // A sun reaches through panes (no path could find it otherwise: a delta light
+            // behind a delta transmission); emitters' light reaches through them by BSDF
+            // sampling only, so their shadow rays stop at a pane.
+            contrib * self.sun_transmittance(origin, wi)
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// What of a sun's light reaches `origin` along the ray from `origin` towards the sun
+    /// (`wi`): 1 through nothing, the product of the panes' `w_pane × T(θ) × C` through
+    /// panes only, 0 where anything else blocks it (at most 16 panes).
+    pub fn sun_transmittance(&self, origin: Vec3, wi: Vec3) -> Vec3 {
+        let mut t = Vec3::ONE;
+        let mut ray = Ray::new(origin, wi, f32::INFINITY);
+        for _ in 0..16 {
+            let hit = self.bvh.closest_hit(&ray);
+            if !hit.is_hit() {
+                return t;
+            }
+            let tri = self.bvh.triangles[hit.tri as usize];
+            let m = &self.materials[tri.material as usize];
+            let [p0, p1, p2] = tri.corners();
+            let ng = (p1 - p0).cross(p2 - p0).normalize();
+            let pass = m.pane_transmission(ng.dot(wi));
+            if pass <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let uv = self.uv_at(hit.tri, hit.u, hit.v);
+            t *= m.base_color * self.texture(m.base_texture, uv) * pass;
+            let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+            let side = if ng.dot(wi) > 0.0 { ng } else { -ng };
+            ray = Ray::new(offset_ray_origin(p, side), wi, f32::INFINITY);
+        }
+        Vec3::ZERO
     }
 }
 

@@ -45,6 +45,10 @@ pub enum BakeBuffer {
     NextTiles,
     /// Radiance escaping through mirrors, per ray.
     SpecEscape,
+    /// Per face, its thin glass pane (`PaneFace`).
+    Panes,
+    /// What panes absorbed, let escape and passed of a sun, per ray.
+    PaneEnergy,
     /// Crossings per ray.
     CellCount,
     /// Per-ray depth lists (`CellEntry`, k_max per ray).
@@ -79,6 +83,8 @@ impl BakeBuffer {
             BakeBuffer::Frames => "Bake::frames",
             BakeBuffer::NextTiles => "Bake::next_tiles",
             BakeBuffer::SpecEscape => "Bake::spec_escape",
+            BakeBuffer::Panes => "Bake::panes",
+            BakeBuffer::PaneEnergy => "Bake::pane_energy",
             BakeBuffer::CellCount => "Bake::cell_count",
             BakeBuffer::Cells => "Bake::cells",
             BakeBuffer::Crossings => "Bake::crossings",
@@ -104,6 +110,8 @@ impl BakeBuffer {
             BakeBuffer::Frames => "the fixed directions' frames",
             BakeBuffer::NextTiles => "the mirror tile values of one iteration",
             BakeBuffer::SpecEscape => "the escaping radiance of every ray",
+            BakeBuffer::Panes => "the faces' panes",
+            BakeBuffer::PaneEnergy => "the panes' energy terms of every ray",
             BakeBuffer::CellCount => "the crossing counts of every ray",
             BakeBuffer::Cells => "the ray depth lists",
             BakeBuffer::Crossings => "the ray crossing lists",
@@ -132,6 +140,7 @@ impl BakeBuffer {
             BakeBuffer::Triangles
                 | BakeBuffer::Faces
                 | BakeBuffer::AlphaMasks
+                | BakeBuffer::Panes
                 | BakeBuffer::TexelCenter
                 | BakeBuffer::ActiveTexels
                 | BakeBuffer::Unshot
@@ -147,9 +156,10 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Directions => U::UNIFORM | U::COPY_DST,
             BakeBuffer::Unshot => U::STORAGE | U::COPY_DST,
-            BakeBuffer::NextTiles | BakeBuffer::SpecEscape | BakeBuffer::Accumulators => {
-                U::STORAGE | U::COPY_SRC | U::COPY_DST
-            }
+            BakeBuffer::NextTiles
+            | BakeBuffer::SpecEscape
+            | BakeBuffer::PaneEnergy
+            | BakeBuffer::Accumulators => U::STORAGE | U::COPY_SRC | U::COPY_DST,
             BakeBuffer::Overflow => U::STORAGE | U::COPY_SRC,
             BakeBuffer::BinStart | BakeBuffer::BinTris | BakeBuffer::ReflectItems => {
                 U::STORAGE | U::COPY_DST
@@ -462,7 +472,7 @@ impl BakePlan {
         let cells = u64::from(self.resolution).pow(2);
         let crossings = cells * u64::from(self.crossings_per_ray());
         let v4 = size_of::<[f32; 4]>() as u64;
-        let mut out = Vec::with_capacity(16 + 3 * self.chunks.len());
+        let mut out = Vec::with_capacity(18 + 3 * self.chunks.len());
         for (k, c) in self.chunks.iter().enumerate() {
             let item = size_of::<ReflectItem>() as u64;
             out.extend([
@@ -482,6 +492,8 @@ impl BakePlan {
             one(B::Frames, self.mirror.frames * 3, v4),
             one(B::NextTiles, self.mirror.tile_values, v4),
             one(B::SpecEscape, cells, v4),
+            one(B::Panes, self.faces, each(&scene.panes)),
+            one(B::PaneEnergy, cells, v4),
             one(B::CellCount, cells, 4),
             one(B::Cells, crossings, size_of::<CellEntry>() as u64),
             one(B::Crossings, crossings, size_of::<Crossing>() as u64),

@@ -220,7 +220,7 @@ impl<'a> Host<'a> {
                 items_base: self.slots[i].items_base,
                 items_count: self.items(i),
                 has_tiles: u32::from(self.tiles.is_some()),
-                _pad: 0,
+                has_panes: u32::from(self.scene.panes.iter().any(|p| p.weight > 0.0)),
             };
             let at = i * DIR_STRIDE as usize;
             bytes[at..at + size_of::<BakeDirection>()].copy_from_slice(bytemuck::bytes_of(&g));
@@ -299,6 +299,8 @@ pub(super) struct SceneBuffers {
     pub frames: wgpu::Buffer,
     pub next_tiles: wgpu::Buffer,
     pub spec_escape: wgpu::Buffer,
+    pub panes: wgpu::Buffer,
+    pub pane_energy: wgpu::Buffer,
     pub cell_count: wgpu::Buffer,
     pub cells: wgpu::Buffer,
     pub crossings: wgpu::Buffer,
@@ -395,6 +397,8 @@ impl SceneResources {
             frames: alloc.init(p(B::Frames), frames),
             next_tiles: alloc.empty(p(B::NextTiles)),
             spec_escape: alloc.empty(p(B::SpecEscape)),
+            panes: alloc.init(p(B::Panes), &scene.panes),
+            pane_energy: alloc.empty(p(B::PaneEnergy)),
             cell_count: alloc.empty(p(B::CellCount)),
             cells: alloc.empty(p(B::Cells)),
             crossings: alloc.empty(p(B::Crossings)),
@@ -449,6 +453,8 @@ impl SceneResources {
                 tile_index: &b.tile_index,
                 frames: &b.frames,
                 spec_escape: &b.spec_escape,
+                panes: &b.panes,
+                pane_energy: &b.pane_energy,
             },
         );
         let gather = pipelines.gather.bind_group(

@@ -40,6 +40,7 @@ use vlf_core::pathtrace::sampling::{
     ggx_g1, ggx_sample_vndf, pcg_hash, reflect, to_local, to_world,
 };
 use vlf_core::pathtrace::{Bvh, Ray, RtTriangle};
+use vlf_core::scene::pane_reflectance;
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
@@ -185,7 +186,28 @@ pub fn traced_specular(
     let side = if visible_side(f, eye, p) == 0 { n } else { -n };
     let c = specular_reflectance(lf, offsets, face, uv);
     let origin = offset_ray_origin(p, side);
-    let alpha = lf.shading.materials[f.material as usize].specular_alpha;
+    let m = &lf.shading.materials[f.material as usize];
+    if m.pane > 0.0 {
+        // A pane: its reflection, pane weight × R(θ) (untinted), and what lies behind it, `c`
+        // (pane weight × C) × T(θ) straight through. The tiles stand in for the reflection
+        // only.
+        let r = pane_reflectance(d.dot(n), m.ior);
+        let (reflected, cut) = trace_chain(
+            lf,
+            bvh,
+            offsets,
+            origin,
+            (d - 2.0 * d.dot(n) * n).normalize(),
+            Vec3::splat(m.pane * r),
+        );
+        let behind = offset_ray_origin(p, -side);
+        let (passed, _) = trace_chain(lf, bvh, offsets, behind, d, c * (1.0 - r));
+        return TracedSpecular {
+            radiance: reflected + passed,
+            tiles: if cut { 1.0 } else { 0.0 },
+        };
+    }
+    let alpha = m.specular_alpha;
     if alpha <= 0.0 {
         let (radiance, cut) = trace_chain(
             lf,
@@ -232,10 +254,12 @@ fn trace_chain(
 ) -> (Vec3, bool) {
     let (mut origin, mut dir, mut throughput) = (origin, dir, throughput);
     let mut depth = 1;
+    // The diffuse part of panes passed on the way.
+    let mut seen = Vec3::ZERO;
     loop {
         let hit = bvh.closest_hit(&Ray::new(origin, dir, f32::MAX));
         if !hit.is_hit() {
-            return (throughput * lf.params.sky, false);
+            return (seen + throughput * lf.params.sky, false);
         }
         let t = &bvh.triangles[hit.tri as usize];
         let face = t.material;
@@ -247,11 +271,23 @@ fn trace_chain(
         let n = f.normal();
         let uv = lf.shading.uvs[t.prim as usize].map(Vec2::from);
         let uv = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
+        let m = &lf.shading.materials[f.material as usize];
+        if m.pane > 0.0 && depth < MAX_DEPTH {
+            // A pane along the chain: its diffuse part, then on straight through it (its own
+            // reflection, which only its tiles hold in the ray's direction, is left out).
+            let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
+            seen += throughput * surface_radiance(lf, offsets, face, side, q, uv);
+            throughput *= specular_reflectance(lf, offsets, face, uv)
+                * (1.0 - pane_reflectance(dir.dot(n), m.ior));
+            origin = offset_ray_origin(q, if n.dot(dir) > 0.0 { n } else { -n });
+            depth += 1;
+            continue;
+        }
         match f.kind {
             FACE_DIFFUSE => {
                 let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
                 let l = surface_radiance(lf, offsets, face, side, q, uv);
-                return (throughput * l, false);
+                return (seen + throughput * l, false);
             }
             FACE_MIRROR if depth < MAX_DEPTH => {
                 throughput *= specular_reflectance(lf, offsets, face, uv);
@@ -261,7 +297,7 @@ fn trace_chain(
                 depth += 1;
             }
             // Cut off by the bound, or a mixed face: the pixel's own tiles.
-            _ => return (Vec3::ZERO, true),
+            _ => return (seen, true),
         }
     }
 }

@@ -1,6 +1,6 @@
 use super::upload::{
     ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_DIFFUSE, FLAG_EMISSIVE,
-    FLAG_EMISSIVE_TEXTURE,
+    FLAG_EMISSIVE_TEXTURE, FLAG_PANE,
 };
 use crate::shaders::{self, constant};
 use vlf_core::scene::WrapMode;
@@ -21,6 +21,7 @@ fn shader_layout_constants_match_rust() {
         ("FLAG_BASE_TEXTURE", FLAG_BASE_TEXTURE),
         ("FLAG_EMISSIVE", FLAG_EMISSIVE),
         ("FLAG_EMISSIVE_TEXTURE", FLAG_EMISSIVE_TEXTURE),
+        ("FLAG_PANE", FLAG_PANE),
         ("WRAP_REPEAT", WrapMode::Repeat.id()),
         ("WRAP_CLAMP_TO_EDGE", WrapMode::ClampToEdge.id()),
         ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),

@@ -25,11 +25,13 @@
 //!   ([`face_record`]):
 //!   0: normal.xyz, kind | flags · 1: origin.xyz, texel_size · 2: u.xyz, width ·
 //!   3: v.xyz, height · 4: ρ_d/π (rgb), texel_base · 5: Le (rgb), 0 ·
-//!   6: base-colour texture, emissive texture, 0, 0 · 7: mirror reflectance (rgb,
-//!   [`specular_reflectance`]), GGX α of the metal lobe (`f32` bits). Pass 5 reads texels 0–4
-//!   of every face, 5 only for emitters, 6 only for textured faces ([`FLAG_DIFFUSE`] and the
-//!   other flags) and 7 only for non-diffuse faces: the reflectance for the visible one and
-//!   for mirrors along a traced chain, α for the visible one ([`super::mirror_trace`]).
+//!   6: base-colour texture, emissive texture, pane IOR, pane weight (`f32` bits; 1.5 and 0
+//!   without a pane) · 7: mirror reflectance (rgb, [`specular_reflectance`]; a pane's
+//!   transmission tint, pane weight × base colour), GGX α of the metal lobe (`f32` bits).
+//!   Pass 5 reads texels 0–4 of every face, 5 only for emitters, 6 only for textured faces and
+//!   panes ([`FLAG_DIFFUSE`] and the other flags) and 7 only for non-diffuse faces: the
+//!   reflectance for the visible one and for mirrors along a traced chain, α for the visible
+//!   one ([`super::mirror_trace`]).
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -67,6 +69,8 @@ pub const FLAG_DIFFUSE: u32 = 0x100;
 pub const FLAG_BASE_TEXTURE: u32 = 0x200;
 pub const FLAG_EMISSIVE: u32 = 0x400;
 pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
+/// The face is a thin glass pane (its material's pane weight and IOR in texel 6).
+pub const FLAG_PANE: u32 = 0x1000;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
@@ -241,6 +245,9 @@ pub fn face_flags(m: &SurfaceMaterial) -> u32 {
             flags |= FLAG_EMISSIVE_TEXTURE;
         }
     }
+    if m.pane > 0.0 {
+        flags |= FLAG_PANE;
+    }
     flags
 }
 
@@ -280,7 +287,12 @@ pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_
         b(f.v, f.height),
         b(rho.into(), f.texel_base),
         b(m.emission, 0),
-        [m.base_color_texture, m.emissive_texture, 0, 0],
+        [
+            m.base_color_texture,
+            m.emissive_texture,
+            m.ior.to_bits(),
+            m.pane.to_bits(),
+        ],
         b(
             specular_reflectance(f, m).into(),
             m.specular_alpha.to_bits(),

@@ -39,6 +39,7 @@ fn masked_scene(filter: FilterMode, factor: f32, cutoff: f32) -> Scene {
             alpha_mode: crate::scene::AlphaMode::Mask,
             alpha_cutoff: cutoff,
             alpha: factor,
+            ..Transparency::default()
         },
     });
     let plain = b.diffuse("plain", Vec3::splat(0.5), Vec3::ZERO);

@@ -9,7 +9,9 @@ use gltf::json::{self, Value, validation::Checked};
 use super::{Importer, element, short};
 use crate::scene::texture::{self, FilterMode, Texture, WrapMode};
 use crate::scene::uri;
-use crate::scene::{AlphaMode, Material, MaterialKind, SceneError, TexRef, Transparency};
+use crate::scene::{
+    AlphaMode, DEFAULT_IOR, Material, MaterialKind, SceneError, TexRef, Transparency,
+};
 
 /// Decoded textures larger than this many texels are rejected (16 bytes each).
 const MAX_TEXELS: u64 = 1 << 25;
@@ -60,7 +62,8 @@ impl Importer<'_> {
         // (mirror, directional tiles, or diffuse) depends on its direction set (`bake::glossy`).
         let kind = MaterialKind::from_metallic(metallic);
 
-        let transparency = self.transparency(&m, &el);
+        let mut transparency = self.transparency(&m, &el);
+        self.read_transmission(i, &el, roughness, &mut transparency);
         self.warn_material_extensions(i, &el);
 
         let base_color_texture = match &pbr.base_color_texture {
@@ -111,6 +114,58 @@ impl Importer<'_> {
         t
     }
 
+    /// `KHR_materials_transmission` (a thin pane, shared conventions) and `KHR_materials_ior`,
+    /// from the raw JSON; what of them is not modelled is a warning.
+    fn read_transmission(&mut self, i: usize, el: &str, roughness: f32, t: &mut Transparency) {
+        let Some(exts) = self
+            .raw
+            .get("materials")
+            .and_then(|m| m.get(i))
+            .and_then(|m| m.get("extensions"))
+            .cloned()
+        else {
+            return;
+        };
+        if let Some(tr) = exts.get("KHR_materials_transmission") {
+            let f = tr
+                .get("transmissionFactor")
+                .and_then(Value::as_f64)
+                .unwrap_or(0.0) as f32;
+            t.transmission = self.clamp_factor(el, "transmissionFactor", f, 0.0, 1.0);
+            if tr.get("transmissionTexture").is_some() {
+                self.warn(format!(
+                    "{el}: transmissionTexture is ignored (transmissionFactor {} everywhere)",
+                    t.transmission
+                ));
+            }
+            if t.transmission > 0.0 && roughness > crate::scene::MIRROR_MAX_ROUGHNESS {
+                self.warn(format!(
+                    "{el}: rough transmission (roughness {roughness}) is modelled as a smooth thin pane"
+                ));
+            }
+            if t.transmission > 0.0 && exts.get("KHR_materials_volume").is_some() {
+                self.warn(format!(
+                    "{el}: KHR_materials_volume is not modelled: a thin pane (no refraction, no absorption in the volume)"
+                ));
+            }
+        }
+        if let Some(ior) = exts.get("KHR_materials_ior") {
+            let v = ior
+                .get("ior")
+                .and_then(Value::as_f64)
+                .unwrap_or(f64::from(DEFAULT_IOR)) as f32;
+            // The extension allows 0 (meaning an infinite index) and values ≥ 1.
+            t.ior = if v.is_finite() && v >= 1.0 {
+                v
+            } else {
+                self.warn(format!(
+                    "{el}: ior {v} is not modelled (below 1 or infinite); using {DEFAULT_IOR}"
+                ));
+                DEFAULT_IOR
+            };
+        }
+    }
+
     /// Warnings for material extensions that change nothing here, and for
     /// `KHR_texture_transform` (not applied).
     fn warn_material_extensions(&mut self, i: usize, el: &str) {
@@ -118,8 +173,16 @@ impl Importer<'_> {
             return;
         };
         if let Some(exts) = raw.get("extensions").and_then(Value::as_object) {
+            // Transmission, its IOR and (for panes) its volume are read or warned about in
+            // `read_transmission`.
+            let modelled = [
+                "KHR_materials_emissive_strength",
+                "KHR_materials_transmission",
+                "KHR_materials_ior",
+            ];
+            let pane = exts.contains_key("KHR_materials_transmission");
             for name in exts.keys() {
-                if name != "KHR_materials_emissive_strength" {
+                if !modelled.contains(&name.as_str()) && !(pane && name == "KHR_materials_volume") {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }
