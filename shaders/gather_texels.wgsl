@@ -12,12 +12,16 @@
 //   read stops at contacts as the CPU's (Field::irradiance_at; common/gather_field.wgsl), with
 //   the contact bits the CPU computed (Contacts) and short visibility rays.
 // * direct: light samples over the emitters and cosine rays combined with the power heuristic,
-//   the sky by the cosine rays, suns by shadow rays.
+//   the sky by the cosine rays, suns, point and spot lights by shadow rays.
+// * shading normals: each sample point keeps the chart triangle it lies on; where that triangle
+//   is smooth, its rays, light samples and delta lights are taken about the interpolated normal
+//   there (point_normal), from the geometric face, and directions below the geometric surface
+//   bring nothing (vlf_core::gather::below).
 //
 // Steps. A texel's estimate is split into steps, one dispatch each, in the order the CPU draws:
 // begin (stream, class), draw_points (a batch of points each), finish_points (centroid
 // fallback, first strata), then indirect_rays (a batch of rays each), indirect_end; or
-// light_samples (batches), shuffle, cosine_rays (batches), sun_rays (batches of points),
+// light_samples (batches), shuffle, cosine_rays (batches), delta_rays (batches of points),
 // direct_end. Between steps the texel's state (random stream, points, strata order, partial
 // sums in the CPU's order of addition) stays in `scratch`, so the result does not depend on
 // the batch sizes. Why: llvmpipe (lavapipe) gives every shader invocation (a SIMD group of
@@ -79,7 +83,9 @@ struct GatherGlobals {
     side: u32,
     // Where the field buffer's contact bits start (16 texels' bytes per entry).
     field_contacts: u32,
-    _pad1: u32,
+    // Where the grid's chart normals start (three entries, the corners' unit shading normals,
+    // per smooth chart triangle).
+    chart_normals: u32,
 }
 
 // One entry per step of the chunk, bound at a dynamic offset. (Not a second uniform for the
@@ -89,8 +95,10 @@ struct GatherGlobals {
 // The grid being gathered, in sections (vec4 each; offsets in gg): its faces (5 entries per
 // BakeFace, at 0), per texel its covered part's centroid (VLF xyz) and area (w) then its face
 // (x, as bits) (at grid_texels), per face the start of its chart triangles (x, as bits; faces +
-// 1 entries, at chart_start), and the chart-space triangles, two entries each: (p0, p1),
-// (p2, 0, 0) (at chart_tris). One buffer, to keep within 8 storage buffers per stage.
+// 1 entries, at chart_start), the chart-space triangles, two entries each: (p0, p1),
+// (p2, normals, 0) with `normals` the triangle's first entry (as bits) in the chart normals
+// (at chart_normals; NONE for a flat triangle) (at chart_tris), and the chart normals. One
+// buffer, to keep within 8 storage buffers per stage.
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 // The estimate per texel of the grid (rgb; a = 1 where the texel has an open point).
 @group(0) @binding(2) var<storage, read_write> gather_out: array<vec4<f32>>;
@@ -144,7 +152,7 @@ struct TexelState {
     flags: u32,
     // The lit side's unit normal.
     n: vec3<f32>,
-    // The estimate so far, and the suns' sum over points (direct).
+    // The estimate so far, and the delta lights' sum over points (direct).
     sum: vec3<f32>,
     sun: vec3<f32>,
 }
@@ -191,8 +199,13 @@ fn point(k: u32) -> vec3<f32> {
     return scratch[scratch_base + HEADER + k].xyz;
 }
 
-fn set_point(k: u32, p: vec3<f32>) {
-    scratch[scratch_base + HEADER + k] = vec4<f32>(p, 0.0);
+// The chart triangle (index into the grid's chart triangles) point k lies on, or NONE.
+fn point_triangle(k: u32) -> u32 {
+    return bitcast<u32>(scratch[scratch_base + HEADER + k].w);
+}
+
+fn set_point(k: u32, p: vec3<f32>, tri: u32) {
+    scratch[scratch_base + HEADER + k] = vec4<f32>(p, bitcast<f32>(tri));
 }
 
 fn order_at(k: u32) -> u32 {
@@ -211,9 +224,10 @@ fn to_vlf_point(p: vec3<f32>) -> vec3<f32> {
     return (p - gg.xf_center) * gg.xf_scale;
 }
 
-// Whether chart point c (texel units) of grid face `fi` lies on one of its triangles where its
-// alpha mask leaves a surface (Charts::inside: the first triangle that holds it decides).
-fn chart_inside(fi: u32, c: vec2<f32>) -> bool {
+// The first chart triangle (index into the grid's chart triangles) of grid face `fi` holding
+// chart point c (texel units), or NONE when none does or when its alpha mask leaves no surface
+// there (Charts::locate: the first triangle that holds it decides).
+fn chart_locate(fi: u32, c: vec2<f32>) -> u32 {
     for (var t = chart_start(fi); t < chart_start(fi + 1u); t++) {
         let a = grid[gg.chart_tris + 2u * t];
         let q0 = a.xy;
@@ -229,12 +243,63 @@ fn chart_inside(fi: u32, c: vec2<f32>) -> bool {
         if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
             let sum = d0 + d1 + d2;
             if alpha_masks[0] == 0u || sum == 0.0 {
-                return true;
+                return t;
             }
-            return !alpha_cuts(bitcast<u32>(b.z), vec3<f32>(d1 / sum, d2 / sum, d0 / sum));
+            if alpha_cuts(bitcast<u32>(b.w), vec3<f32>(d1 / sum, d2 / sum, d0 / sum)) {
+                return NONE;
+            }
+            return t;
         }
     }
-    return false;
+    return NONE;
+}
+
+// Whether chart point c (texel units) of grid face `fi` lies on one of its triangles.
+fn chart_inside(fi: u32, c: vec2<f32>) -> bool {
+    return chart_locate(fi, c) != NONE;
+}
+
+// The unit shading normal of point k of the texel (grid face `fi`, lit side's geometric
+// normal n): its chart triangle's corner normals interpolated at the point's chart position and
+// renormalised, turned to n's side; n itself on a flat triangle (Charts::shading_normal).
+fn point_normal(k: u32, fi: u32, n: vec3<f32>) -> vec3<f32> {
+    let t = point_triangle(k);
+    if t == NONE {
+        return n;
+    }
+    let b = grid[gg.chart_tris + 2u * t + 1u];
+    let o = bitcast<u32>(b.z);
+    if o == NONE {
+        return n;
+    }
+    let a = grid[gg.chart_tris + 2u * t];
+    let f = grid_face(fi);
+    let d = to_vlf_point(point(k)) - f.origin;
+    let c = vec2<f32>(dot(d, f.u), dot(d, f.v)) / f.texel_size;
+    let e1 = a.zw - a.xy;
+    let e2 = b.xy - a.xy;
+    let det = e1.x * e2.y - e1.y * e2.x;
+    var b1 = 0.0;
+    var b2 = 0.0;
+    if det != 0.0 {
+        let q = c - a.xy;
+        b1 = (q.x * e2.y - q.y * e2.x) / det;
+        b2 = (e1.x * q.y - e1.y * q.x) / det;
+    }
+    let at = gg.chart_normals + o;
+    let s = grid[at].xyz * (1.0 - b1 - b2) + grid[at + 1u].xyz * b1 + grid[at + 2u].xyz * b2;
+    let len = length(s);
+    if !(len > 0.0) {
+        return n;
+    }
+    let m = s / len;
+    return select(m, -m, dot(m, n) < 0.0);
+}
+
+// Whether direction `dir` lies below the geometric surface (unit normal n of the lit side)
+// for a point whose shading normal `ns` is its own (vlf_core::gather::below).
+fn below(ns: vec3<f32>, n: vec3<f32>, dir: vec3<f32>) -> bool {
+    return any(ns != n) && dot(dir, n) <= 0.0;
 }
 
 // World point of chart point c of grid face `fi`.
@@ -261,17 +326,19 @@ fn is_open(p: vec3<f32>, n: vec3<f32>) -> bool {
         normalize(n * 0.5 + t * 0.8660254),
         normalize(n * 0.5 + (-t * 0.5 + b * 0.8660254) * 0.8660254),
     );
+    // A majority of the three (points.rs says why).
+    var open = 0u;
     for (var k = 0u; k < 3u; k++) {
         let d = dirs[k];
         let hit = trace(Ray(origin, 0.0, d, FAR), false);
-        if hit.tri == NONE {
-            return true;
+        if hit.tri == NONE || dot(tri_normal_raw(triangles[hit.tri]), d) <= 0.0 {
+            open++;
         }
-        if dot(tri_normal_raw(triangles[hit.tri]), d) <= 0.0 {
-            return true;
+        if open == 2u || open + 1u == k {
+            break;
         }
     }
-    return false;
+    return open >= 2u;
 }
 
 // TexelPoints::classify: 1 = all probes open, 0 = all closed, 2 = they disagree.
@@ -361,7 +428,9 @@ fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
     let f = field_face(face);
     let side = select(1u, 0u, dot(f.normal, -dir) >= 0.0);
     let m = material(tri.material);
-    let rho = m.base_color * m.bake_diffuse * sample_texture(m.base_texture, tri_uv(hit.tri, hit.u, hit.v));
+    let uv = tri_uv_set(hit.tri, m.texcoords & 1u, hit.u, hit.v);
+    let rho = m.base_color * m.bake_diffuse * sample_texture(m.base_texture, uv)
+        * tri_color(hit.tri, hit.u, hit.v);
     var l = vec3<f32>(0.0);
     // Field::diffuse: no read (and no visibility rays) where the albedo is zero.
     if any(rho != vec3<f32>(0.0)) {
@@ -452,10 +521,11 @@ fn draw_points(
                 if draw < DRAWS_IN_STRATUM {
                     c = at.corner + (st + j) * inv;
                 }
-                if chart_inside(at.fi, c) {
+                let tri = chart_locate(at.fi, c);
+                if tri != NONE {
                     let p = chart_world(at.fi, c);
                     if !test_each || is_open(p, s.n) {
-                        set_point(s.npts, p);
+                        set_point(s.npts, p, tri);
                         s.npts++;
                         found = true;
                     }
@@ -486,9 +556,14 @@ fn finish_points(
     var rng = s.rng;
     if s.npts == 0u {
         // A sliver of the face that no draw found: its covered part's centroid.
-        let p = to_world_point(grid[gg.grid_texels + 2u * t].xyz);
+        let q = grid[gg.grid_texels + 2u * t].xyz;
+        let p = to_world_point(q);
         if (s.flags & TEST_EACH) == 0u || is_open(p, s.n) {
-            set_point(0u, p);
+            let at = locate(t);
+            let f = grid_face(at.fi);
+            let d = q - f.origin;
+            let c = vec2<f32>(dot(d, f.u), dot(d, f.v)) / f.texel_size;
+            set_point(0u, p, chart_locate(at.fi, c));
             s.npts = 1u;
         }
     }
@@ -557,10 +632,15 @@ fn indirect_rays(
     var rng = s.rng;
     var sum = s.sum;
     let n = s.n;
+    let fi = locate(t).fi;
     let k1 = min(gg.k1, s.npts);
     for (var k = gg.k0; k < k1; k++) {
         let u = strata_point(k, gg.cosine_side, &rng);
-        let dir = to_world(cosine_hemisphere(u), n);
+        let ns = point_normal(k, fi, n);
+        let dir = to_world(cosine_hemisphere(u), ns);
+        if below(ns, n, dir) {
+            continue;
+        }
         let hit = trace(Ray(offset_origin(point(k), n), 0.0, dir, FAR), false);
         if hit.tri != NONE {
             sum += field_radiance(dir, hit);
@@ -587,7 +667,7 @@ fn indirect_end(
 
 // ---------------------------------------------------------------------------------------------
 // Direct estimator (Gatherer::direct): light samples and cosine rays combined with the power
-// heuristic, the sky by the cosine rays, suns by shadow rays.
+// heuristic, the sky by the cosine rays, suns, point and spot lights by shadow rays.
 
 // Light samples gg.k0 .. gg.k1 of gg.light_samples (stratified over the emitters' sample
 // space, paired at random with the point strata).
@@ -607,10 +687,13 @@ fn light_samples(
     }
     var rng = s.rng;
     let n = s.n;
+    let fi = locate(t).fi;
     let fl = f32(gg.light_samples);
     let fb = f32(gg.cosine_rays);
     for (var k = gg.k0; k < min(gg.k1, gg.light_samples); k++) {
-        let p = point(spread_point(k, gg.light_samples, s.npts, &rng));
+        let kp = spread_point(k, gg.light_samples, s.npts, &rng);
+        let p = point(kp);
+        let ns = point_normal(kp, fi, n);
         let u = strata_point(k, gg.light_side, &rng);
         let pe = pick_emitter_remapped(u);
         let e = blob[scene_info.emitter_base + pe.index];
@@ -622,9 +705,9 @@ fn light_samples(
         let to = x - p;
         let d2 = dot(to, to);
         let wi = to / sqrt(d2);
-        let cos_r = dot(n, wi);
+        let cos_r = dot(ns, wi);
         let cos_l = -dot(wi, nl);
-        if cos_r <= 0.0 || cos_l <= 0.0 {
+        if cos_r <= 0.0 || cos_l <= 0.0 || below(ns, n, wi) {
             continue;
         }
         let pdf_l = e.z / e.y * d2 / cos_l;
@@ -659,12 +742,18 @@ fn cosine_rays(
     }
     var rng = s.rng;
     let n = s.n;
+    let fi = locate(t).fi;
     let fl = f32(gg.light_samples);
     let fb = f32(gg.cosine_rays);
     for (var k = gg.k0; k < min(gg.k1, gg.cosine_rays); k++) {
-        let p = point(spread_point(k, gg.cosine_rays, s.npts, &rng));
+        let kp = spread_point(k, gg.cosine_rays, s.npts, &rng);
+        let p = point(kp);
+        let ns = point_normal(kp, fi, n);
         let u = strata_point(k, gg.cosine_side, &rng);
-        let dir = to_world(cosine_hemisphere(u), n);
+        let dir = to_world(cosine_hemisphere(u), ns);
+        if below(ns, n, dir) {
+            continue;
+        }
         let hit = trace(Ray(offset_origin(p, n), 0.0, dir, FAR), false);
         if hit.tri == NONE {
             s.sum += gg.sky.xyz * (PI / fb);
@@ -678,7 +767,7 @@ fn cosine_rays(
         if cos_l <= 0.0 {
             continue;
         }
-        let pdf_b = dot(n, dir) * INV_PI;
+        let pdf_b = dot(ns, dir) * INV_PI;
         let pdf_l = emitter_pdf(ht.light, hit.t, cos_l) / scene_info.p_emitters;
         let w = power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = emission_at(hit.tri, hit.u, hit.v);
@@ -688,9 +777,10 @@ fn cosine_rays(
     end_step(&s);
 }
 
-// Suns: one shadow ray per point and sun, points gg.k0 .. gg.k1.
+// Delta lights (suns, point and spot lights): one shadow ray per point and light, points
+// gg.k0 .. gg.k1.
 @compute @workgroup_size(64)
-fn sun_rays(
+fn delta_rays(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
@@ -703,14 +793,17 @@ fn sun_rays(
     if (s.flags & CLOSED) != 0u {
         return;
     }
+    let fi = locate(t).fi;
     for (var k = gg.k0; k < min(gg.k1, s.npts); k++) {
-        let origin = offset_origin(point(k), s.n);
-        for (var i = 0u; i < scene_info.sun_count; i++) {
-            let a = blob[scene_info.sun_base + 2u * i];
-            let b = blob[scene_info.sun_base + 2u * i + 1u];
-            let c = dot(s.n, a.xyz);
-            if c > 0.0 && trace(Ray(origin, 0.0, a.xyz, FAR), true).tri == NONE {
-                s.sun += b.xyz * c;
+        let p = point(k);
+        let origin = offset_origin(p, s.n);
+        let ns = point_normal(k, fi, s.n);
+        for (var i = 0u; i < scene_info.delta_count; i++) {
+            let inc = delta_incident(i, p);
+            let c = dot(ns, inc.wi);
+            if c > 0.0 && !below(ns, s.n, inc.wi)
+                && trace(delta_shadow_ray(i, origin, inc), true).tri == NONE {
+                s.sun += inc.irradiance * c;
             }
         }
     }
@@ -729,7 +822,7 @@ fn direct_end(
     }
     let s = load_state();
     var sum = s.sum;
-    if scene_info.sun_count > 0u && s.npts > 0u {
+    if scene_info.delta_count > 0u && s.npts > 0u {
         sum += s.sun / f32(s.npts);
     }
     write_estimate(t, s, sum);

@@ -166,20 +166,23 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
     let cos_d = dot(d, ng);
     let front = cos_d < 0.0;
     let m = material(tri.material);
-    let uv = tri_uv(hit.tri, hit.u, hit.v);
     if front && any(m.emission != vec3<f32>(0.0)) {
-        let le = m.emission * sample_texture(m.emissive_texture, uv);
+        let le = emission_at(hit.tri, hit.u, hit.v);
         var w = 1.0;
         if (*p).pdf >= 0.0 {
             w = power_heuristic((*p).pdf, emitter_pdf(tri.light, hit.t, -cos_d));
         }
         out.emitted = beta * le * w;
     }
-    let n = select(-ng, ng, front);
+    // The geometric normal and the shading normal on the side the ray arrived at; rays leave
+    // from the geometric surface, and directions below it (own_normal vertices only) bring nothing.
+    let nside = select(-ng, ng, front);
+    let n = tri_shading_normal(hit.tri, hit.u, hit.v, nside);
+    let own_normal = any(n != nside);
     let wo = -d;
     let pos = tri.p0 * (1.0 - hit.u - hit.v) + tri.p1 * hit.u + tri.p2 * hit.v;
-    let color = m.base_color * sample_texture(m.base_texture, uv);
-    let origin = offset_origin(pos, n);
+    let color = base_color_at(hit.tri, m, hit.u, hit.v);
+    let origin = offset_origin(pos, nside);
     // Next-event estimation: one light sample.
     let u_class = rng_f32(r);
     let u_light = rng_f32(r);
@@ -198,7 +201,7 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
             let wi = to / sqrt(dist2);
             let cos_l = -dot(wi, nl);
             let cos_s = dot(n, wi);
-            if cos_l > 0.0 && cos_s > 0.0 {
+            if cos_l > 0.0 && cos_s > 0.0 && !(own_normal && dot(wi, nside) <= 0.0) {
                 let f = bsdf_eval(m, color, n, wo, wi);
                 let pdf_light = scene_info.p_emitters * e.z * dist2 / (e.y * cos_l);
                 let le = emission_at(bitcast<u32>(e.x), b1, b2);
@@ -209,17 +212,17 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
                     out.shadow_contrib = contrib;
                 }
             }
-        } else if scene_info.sun_count > 0u {
-            let si = pick_sun(u_light);
-            let a = blob[scene_info.sun_base + 2u * si];
-            let b = blob[scene_info.sun_base + 2u * si + 1u];
-            let wi = a.xyz;
-            let cos_i = dot(n, wi);
-            if cos_i > 0.0 {
-                let f = bsdf_eval(m, color, n, wo, wi);
-                let contrib = beta * f.xyz * b.xyz * (cos_i / ((1.0 - scene_info.p_emitters) * a.w));
+        } else if scene_info.delta_count > 0u {
+            // A delta light (sun, point or spot): no MIS.
+            let li = pick_delta(u_light);
+            let inc = delta_incident(li, pos);
+            let pdf = blob[scene_info.delta_base + 4u * li + 1u].w;
+            let cos_i = dot(n, inc.wi);
+            if cos_i > 0.0 && !(own_normal && dot(inc.wi, nside) <= 0.0) {
+                let f = bsdf_eval(m, color, n, wo, inc.wi);
+                let contrib = beta * f.xyz * inc.irradiance * (cos_i / ((1.0 - scene_info.p_emitters) * pdf));
                 if any(contrib > vec3<f32>(0.0)) {
-                    out.shadow = Ray(origin, 0.0, wi, FAR);
+                    out.shadow = delta_shadow_ray(li, origin, inc);
                     out.shadow_contrib = contrib;
                 }
             }
@@ -229,7 +232,7 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
     let u_lobe = rng_f32(r);
     let u_dir = rng_2d(r);
     let s = bsdf_sample(m, color, n, wo, u_lobe, u_dir);
-    if s.pdf == 0.0 {
+    if s.pdf == 0.0 || (own_normal && dot(s.wi, nside) <= 0.0) {
         return out;
     }
     var nb = beta * s.weight;

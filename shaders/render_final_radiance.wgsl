@@ -46,6 +46,17 @@
 // sample_weight (sample 0 overwrites, later samples add), so after sample_count samples each
 // pixel holds the mean over its square.
 //
+// Per-corner attributes (pipeline constant ATTRIBUTES; light fields with shading normals, vertex
+// colours or a texture read with TEXCOORD_1; common/surface_attributes.wgsl): the visible point's
+// interpolated normal, colour, TEXCOORD_1 and irradiance correction come from pass 4b's targets
+// (fs_main) or as varyings (fs_surface), a traced hit's from the corner attributes
+// (chain_surface); face flags say which faces use them. Vertex colours multiply ρ_d and the
+// mirror reflectance after the base-colour texture; each texture reads the set its material
+// names; on faces with smooth triangles the correction is added to the atlas's irradiance, which
+// makes it continuous across the faces' edges (vlf_gpu::render::attributes); smooth mirrors and
+// glossy lobes reflect about the interpolated normal, and a reflection below the geometric
+// surface is black (vlf_gpu::render::mirror_trace).
+//
 // In the window (fs_surface), textured light fields are drawn in two parts where the device
 // has a stencil for it (vlf_gpu::render::final_radiance): pixels showing a textured face (pass
 // 3 marked them in the stencil) with the texture code, the others without (BASE_TEXTURES and
@@ -62,6 +73,7 @@
 #import "common/sampling.wgsl"
 #import "common/hash.wgsl"
 #import "common/pane.wgsl"
+#import "common/surface_attributes.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
 // BVH's nodes and triangles (common/bvh.wgsl; triangle `material` = face, `prim` = triangle).
@@ -77,7 +89,14 @@ const FLAG_DIFFUSE: u32 = 0x100u;
 const FLAG_BASE_TEXTURE: u32 = 0x200u;
 const FLAG_EMISSIVE: u32 = 0x400u;
 const FLAG_EMISSIVE_TEXTURE: u32 = 0x800u;
-const FLAG_PANE: u32 = 0x1000u;
+const FLAG_SMOOTH: u32 = 0x1000u;
+const FLAG_COLORS: u32 = 0x2000u;
+const FLAG_BASE_UV1: u32 = 0x4000u;
+const FLAG_EMISSIVE_UV1: u32 = 0x8000u;
+const FLAG_PANE: u32 = 0x10000u;
+// Whether the light field has per-corner attributes (see the header); false compiles their
+// reads out.
+override ATTRIBUTES: bool = false;
 // Whether the pixels this pipeline shades may show base-colour / emissive textures. Pipeline
 // constants rather than flags: llvmpipe runs divergent branches under a mask at every pixel, so
 // texture code no pixel needs is compiled out instead of skipped.
@@ -130,6 +149,45 @@ const LOBE_SAMPLES: u32 = 4u;
 // vs_surface only: the scene's triangles (as pass 4 binds them) and their corners' TEXCOORD_0.
 @group(1) @binding(16) var<storage, read> surface_triangles: array<BakeTriangle>;
 @group(1) @binding(17) var<storage, read> surface_uvs: array<vec2<f32>>;
+// Pass 4b's targets: the visible point's attributes as common/surface_attributes.wgsl packs
+// them.
+@group(1) @binding(18) var attributes_a: texture_2d<f32>;
+@group(1) @binding(19) var attributes_b: texture_2d<u32>;
+// The corner attributes, CORNER_ENTRIES per corner, three corners per triangle in the light
+// field's order (vlf_gpu::render::attributes::corner_attributes); the uploaded triangles and the
+// mirror BVH's name their index (_pad0, prim).
+@group(1) @binding(20) var<storage, read> corner_attributes: array<vec4<f32>>;
+
+// What is interpolated at a point besides its position (vlf_gpu::render::attributes::
+// PixelSurface): TEXCOORD_0, TEXCOORD_1, vertex colour, shading normal (not renormalised; zero
+// on flat triangles), irradiance correction of the side seen.
+struct Surface {
+    uv: vec2<f32>,
+    uv1: vec2<f32>,
+    color: vec3<f32>,
+    normal: vec3<f32>,
+    irradiance: vec3<f32>,
+}
+
+fn plain_surface(uv: vec2<f32>) -> Surface {
+    return Surface(uv, vec2<f32>(0.0), vec3<f32>(1.0), vec3<f32>(0.0), vec3<f32>(0.0));
+}
+
+// The surface of pass 4b's texels a, w (pack_surface) with TEXCOORD_0 uv.
+fn surface_of(uv: vec2<f32>, a: vec4<f32>, w: vec4<u32>) -> Surface {
+    return Surface(uv, a.zw, unpack_colour(w.x), oct_decode(a.xy), bitcast<vec3<f32>>(w.yzw));
+}
+
+// The texture coordinates of set 1 where `set1`, else set 0.
+fn tex_uv(s: Surface, set1: bool) -> vec2<f32> {
+    return select(s.uv, s.uv1, set1);
+}
+
+// Whether faces with flags `flags` read the per-corner attributes.
+fn needs_attributes(flags: u32) -> bool {
+    let any = FLAG_SMOOTH | FLAG_COLORS | FLAG_BASE_UV1 | FLAG_EMISSIVE_UV1;
+    return ATTRIBUTES && (flags & any) != 0u;
+}
 
 struct Face {
     normal: vec3<f32>,
@@ -235,10 +293,9 @@ fn is_textured(f: Face) -> bool {
         || (EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u);
 }
 
-// Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` with texture coordinate
-// `uv` on `side`. Mirrored exactly on the CPU by
-// vlf_gpu::render::final_radiance::surface_radiance.
-fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, uv: vec2<f32>) -> vec3<f32> {
+// Le(uv) [side 0] + ρ_d(uv) / π · E of face `face` (record `f`) at `p` with attributes `s` on
+// `side`. Mirrored exactly on the CPU by vlf_gpu::render::final_radiance::surface_radiance.
+fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, s: Surface) -> vec3<f32> {
     var tex = vec2<u32>(0u);
     if is_textured(f) {
         tex = face_texel(face, 6u).xy;
@@ -247,28 +304,77 @@ fn surface_radiance_uv(face: u32, f: Face, side: u32, p: vec3<f32>, uv: vec2<f32
     if (f.flags & FLAG_DIFFUSE) != 0u {
         var rho = f.rho_over_pi;
         if BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u {
-            rho = rho * surface_texture(tex.x, uv);
+            rho = rho * surface_texture(tex.x, tex_uv(s, (f.flags & FLAG_BASE_UV1) != 0u));
         }
-        l = rho * atlas_irradiance(f, side, p);
+        if ATTRIBUTES && (f.flags & FLAG_COLORS) != 0u {
+            rho = rho * s.color;
+        }
+        var e = atlas_irradiance(f, side, p);
+        if ATTRIBUTES && (f.flags & FLAG_SMOOTH) != 0u {
+            e = e + s.irradiance;
+        }
+        l = rho * e;
     }
     if side == 0u && (f.flags & FLAG_EMISSIVE) != 0u {
         var le = f.emission;
         if EMISSIVE_TEXTURES && (f.flags & FLAG_EMISSIVE_TEXTURE) != 0u {
-            le = le * surface_texture(tex.y, uv);
+            le = le * surface_texture(tex.y, tex_uv(s, (f.flags & FLAG_EMISSIVE_UV1) != 0u));
         }
         l = l + le;
     }
     return l;
 }
 
-// The metal lobe's reflectance of face `face` (record `f`) at texture coordinate `uv`: its
-// specular weight × base colour × base-colour texture (C of the glTF metal lobe).
-fn specular_reflectance(face: u32, f: Face, uv: vec2<f32>) -> vec3<f32> {
+// The metal lobe's reflectance of face `face` (record `f`) at a point with attributes `s`: its
+// specular weight × base colour × base-colour texture × vertex colour (C of the glTF metal
+// lobe). Mirrored on the CPU by vlf_gpu::render::mirror_trace::specular_reflectance.
+fn specular_reflectance(face: u32, f: Face, s: Surface) -> vec3<f32> {
     var c = bitcast<vec3<f32>>(face_texel(face, 7u).xyz);
     if BASE_TEXTURES && (f.flags & FLAG_BASE_TEXTURE) != 0u {
-        c = c * surface_texture(face_texel(face, 6u).x, uv);
+        c = c * surface_texture(face_texel(face, 6u).x, tex_uv(s, (f.flags & FLAG_BASE_UV1) != 0u));
+    }
+    if ATTRIBUTES && (f.flags & FLAG_COLORS) != 0u {
+        c = c * s.color;
     }
     return c;
+}
+
+// The unit normal face record `f` reflects about at a point with attributes `s`, turned to
+// `side` (the geometric normal of the side the ray comes from), in xyz, and w = 1 where it is
+// the point's own shading normal (vlf_gpu::render::final_radiance::shading_normal).
+fn shading_normal(f: Face, s: Surface, side: vec3<f32>) -> vec4<f32> {
+    if !ATTRIBUTES || (f.flags & FLAG_SMOOTH) == 0u || dot(s.normal, s.normal) <= 0.0 {
+        return vec4<f32>(side, 0.0);
+    }
+    let m = normalize(s.normal);
+    return vec4<f32>(select(m, -m, dot(m, side) < 0.0), 1.0);
+}
+
+// The surface of a traced hit on the mirror BVH's triangle `hit.tri` (record `hf`) seen from
+// `side`: its TEXCOORD_0 from the leaf-order uvs (textured faces), its other attributes from the
+// corner attributes (faces that read them) (vlf_gpu::render::attributes::PixelSurface::
+// of_triangle).
+fn chain_surface(hit: Hit, prim: u32, hf: Face, side: u32) -> Surface {
+    let b0 = 1.0 - hit.u - hit.v;
+    var s = plain_surface(vec2<f32>(0.0));
+    if is_textured(hf) {
+        let k = 3u * hit.tri;
+        s.uv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
+    }
+    if needs_attributes(hf.flags) {
+        let k = 3u * CORNER_ENTRIES * prim;
+        let c1 = k + CORNER_ENTRIES;
+        let c2 = k + 2u * CORNER_ENTRIES;
+        let a = corner_attributes[k] * b0 + corner_attributes[c1] * hit.u
+            + corner_attributes[c2] * hit.v;
+        let b = corner_attributes[k + 1u] * b0 + corner_attributes[c1 + 1u] * hit.u
+            + corner_attributes[c2 + 1u] * hit.v;
+        let j = 2u + side;
+        let e = corner_attributes[k + j] * b0 + corner_attributes[c1 + j] * hit.u
+            + corner_attributes[c2 + j] * hit.v;
+        s = Surface(s.uv, vec2<f32>(a.w, b.w), b.xyz, a.xyz, e.xyz);
+    }
+    return s;
 }
 
 // The radiance (rgb) the traced chain brings back along `dir` from `origin`, a point of the
@@ -293,32 +399,31 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
         let q = t.p0 * b0 + t.p1 * hit.u + t.p2 * hit.v;
         let hf = load_face(hface);
         let n = hf.normal;
-        var huv = vec2<f32>(0.0);
-        if is_textured(hf) {
-            let k = 3u * hit.tri;
-            huv = mirror_uvs[k] * b0 + mirror_uvs[k + 1u] * hit.u + mirror_uvs[k + 2u] * hit.v;
-        }
+        let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
+        let hs = chain_surface(hit, t.prim, hf, hside);
         if (hf.flags & FLAG_PANE) != 0u && depth < MIRROR_DEPTH {
             // A pane along the chain: its diffuse part, then on straight through it.
-            let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
-            seen = seen + throughput * surface_radiance_uv(hface, hf, hside, q, huv);
+            seen = seen + throughput * surface_radiance_uv(hface, hf, hside, q, hs);
             let ior = bitcast<f32>(face_texel(hface, 6u).z);
             throughput = throughput
-                * (specular_reflectance(hface, hf, huv) * (1.0 - pane_reflectance(dot(dir, n), ior)));
+                * (specular_reflectance(hface, hf, hs) * (1.0 - pane_reflectance(dot(dir, n), ior)));
             origin = offset_origin(q, select(-n, n, dot(n, dir) > 0.0));
             depth += 1u;
             continue;
         }
         if hf.kind == FACE_DIFFUSE {
-            let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
-            return vec4<f32>(seen + throughput * surface_radiance_uv(hface, hf, hside, q, huv), 0.0);
+            return vec4<f32>(seen + throughput * surface_radiance_uv(hface, hf, hside, q, hs), 0.0);
         }
         if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
             return vec4<f32>(seen, 1.0);
         }
-        throughput = throughput * specular_reflectance(hface, hf, huv);
+        throughput = throughput * specular_reflectance(hface, hf, hs);
         let off = select(-n, n, dot(n, -dir) > 0.0);
-        dir = normalize(dir - 2.0 * dot(dir, n) * n);
+        let ns = shading_normal(hf, hs, off);
+        dir = normalize(dir - 2.0 * dot(dir, ns.xyz) * ns.xyz);
+        if ns.w > 0.0 && dot(dir, off) <= 0.0 {
+            return vec4<f32>(0.0);
+        }
         origin = offset_origin(q, off);
         depth += 1u;
     }
@@ -337,17 +442,21 @@ fn lobe_point(pixel: u32, k: u32) -> vec2<f32> {
 }
 
 // The specular radiance (rgb) reaching the eye from point `p` of non-diffuse face `face`
-// (record `f`, texture coordinate `uv` at p); w = the share of it that falls back to the
-// pixel's tiles instead. A perfect mirror (GGX α 0) traces its reflected view ray; a glossy
-// lobe traces LOBE_SAMPLES directions drawn from its visible normals (points `first` … of
-// pixel `pixel`'s sequence), each weighing C · G1(wi) (f cos / pdf of the lobe, no Fresnel).
+// (record `f`, attributes `s` at p); w = the share of it that falls back to the pixel's tiles
+// instead. A perfect mirror (GGX α 0) traces its reflected view ray; a glossy lobe traces
+// LOBE_SAMPLES directions drawn from its visible normals (points `first` … of pixel `pixel`'s
+// sequence), each weighing C · G1(wi) (f cos / pdf of the lobe, no Fresnel). A smooth point
+// reflects about its shading normal; a direction below the geometric surface is black.
 // Mirrored on the CPU by vlf_gpu::render::mirror_trace::traced_specular.
-fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, pixel: u32,
+fn traced_specular(face: u32, f: Face, p: vec3<f32>, s: Surface, pixel: u32,
                    first: u32) -> vec4<f32> {
     let d = normalize(p - g.eye.xyz);
     let n = f.normal;
     let side = select(-n, n, dot(n, g.eye.xyz - p) >= 0.0);
-    let c = specular_reflectance(face, f, uv);
+    let sn = shading_normal(f, s, side);
+    let ns = sn.xyz;
+    let own = sn.w > 0.0;
+    let c = specular_reflectance(face, f, s);
     let origin = offset_origin(p, side);
     if (f.flags & FLAG_PANE) != 0u {
         // A pane: its reflection (pane weight × R, untinted) and what lies behind it (c × T);
@@ -361,14 +470,24 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, pixel: u32,
     }
     let alpha = bitcast<f32>(face_texel(face, 7u).w);
     if alpha <= 0.0 {
-        return trace_chain(origin, normalize(d - 2.0 * dot(d, n) * n), c);
+        let r = normalize(d - 2.0 * dot(d, ns) * ns);
+        if own && dot(r, side) <= 0.0 {
+            return vec4<f32>(0.0);
+        }
+        return trace_chain(origin, r, c);
     }
-    let wo = to_local(-d, side);
+    let wo = to_local(-d, ns);
+    if own && wo.z <= 0.0 {
+        return vec4<f32>(0.0);
+    }
     var sum = vec4<f32>(0.0);
     for (var k = 0u; k < LOBE_SAMPLES; k += 1u) {
         let wi = reflect_about(wo, ggx_sample_vndf(wo, alpha, lobe_point(pixel, first + k)));
         if wi.z > 0.0 {
-            sum += trace_chain(origin, normalize(to_world(wi, side)), c * ggx_g1(wi.z, alpha));
+            let dir = normalize(to_world(wi, ns));
+            if !(own && dot(dir, side) <= 0.0) {
+                sum += trace_chain(origin, dir, c * ggx_g1(wi.z, alpha));
+            }
         }
     }
     return sum * (1.0 / f32(LOBE_SAMPLES));
@@ -380,16 +499,17 @@ fn vs_main(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
 }
 
 // The radiance towards the eye of the visible point `p` of face `face` (record `f`) at pixel
-// `px`, `uv` its TEXCOORD_0 (used only for textured faces).
-fn shade_surface(face: u32, f: Face, p: vec3<f32>, uv: vec2<f32>, px: vec2<i32>) -> vec3<f32> {
+// `px`, `s` its interpolated attributes (TEXCOORD_0 used only for textured faces, the others
+// only where the face's flags ask).
+fn shade_surface(face: u32, f: Face, p: vec3<f32>, s: Surface, px: vec2<i32>) -> vec3<f32> {
     // The side facing the camera: front (0) when the eye is on the normal's side.
     let side = select(1u, 0u, dot(f.normal, g.eye.xyz - p) >= 0.0);
-    var l = surface_radiance_uv(face, f, side, p, uv);
+    var l = surface_radiance_uv(face, f, side, p, s);
     if SPECULAR && f.kind != FACE_DIFFUSE {
         var traced = vec4<f32>(0.0, 0.0, 0.0, 1.0);
         if TRACING {
             let pixel = u32(px.y) * g.width + u32(px.x);
-            traced = traced_specular(face, f, p, uv, pixel, g.sample_index * LOBE_SAMPLES);
+            traced = traced_specular(face, f, p, s, pixel, g.sample_index * LOBE_SAMPLES);
         }
         l += traced.rgb;
         if traced.w != 0.0 {
@@ -409,11 +529,14 @@ fn shade(frag: vec4<f32>) -> vec4<f32> {
     if face != NO_FACE && face < g.face_count {
         let p = textureLoad(positions, px, 0).xyz;
         let f = load_face(face);
-        var uv = vec2<f32>(0.0);
+        var s = plain_surface(vec2<f32>(0.0));
         if is_textured(f) {
-            uv = textureLoad(uvs, px, 0).xy;
+            s.uv = textureLoad(uvs, px, 0).xy;
         }
-        l = shade_surface(face, f, p, uv, px);
+        if needs_attributes(f.flags) {
+            s = surface_of(s.uv, textureLoad(attributes_a, px, 0), textureLoad(attributes_b, px, 0));
+        }
+        l = shade_surface(face, f, p, s, px);
         hit = 1.0;
     }
     return vec4<f32>(l, hit);
@@ -452,8 +575,13 @@ struct SurfaceVertex {
     @location(6) @interpolate(flat) r3: vec4<u32>,
     @location(7) @interpolate(flat) r4: vec4<u32>,
     @location(8) @interpolate(flat) r5: vec4<u32>,
+    // The corner attributes (zero without ATTRIBUTES): entries 0 and 1 and the correction of
+    // the side the eye sees.
+    @location(9) attr_a: vec4<f32>,
+    @location(10) attr_b: vec4<f32>,
+    @location(11) attr_e: vec3<f32>,
     // The triangle's index in the light field (alpha masks).
-    @location(9) @interpolate(flat) tri: u32,
+    @location(12) @interpolate(flat) tri: u32,
 }
 
 @vertex
@@ -473,6 +601,15 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
     out.r3 = face_texel(face, 3u);
     out.r4 = face_texel(face, 4u);
     out.r5 = face_texel(face, 5u);
+    out.attr_a = vec4<f32>(0.0);
+    out.attr_b = vec4<f32>(0.0);
+    out.attr_e = vec3<f32>(0.0);
+    if ATTRIBUTES {
+        let k = CORNER_ENTRIES * (3u * tri._pad0 + vi % 3u);
+        out.attr_a = corner_attributes[k];
+        out.attr_b = corner_attributes[k + 1u];
+        out.attr_e = corner_attributes[k + correction_entry(tri, g.eye.xyz)].xyz;
+    }
     return out;
 }
 
@@ -485,7 +622,13 @@ fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
     }
     let f = face_from_record(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
     let px = vec2<i32>(vec2<u32>(in.clip.xy));
-    return present(shade_surface(in.face, f, in.position, in.uv, px));
+    var s = plain_surface(in.uv);
+    if needs_attributes(f.flags) {
+        // Packed and unpacked as pass 4b stores them, so the window shades with the stills' bits.
+        let packed = pack_surface(in.attr_a, in.attr_b, in.attr_e);
+        s = surface_of(in.uv, packed.a, packed.w);
+    }
+    return present(shade_surface(in.face, f, in.position, s, px));
 }
 
 // The window's final image where no face is seen: the sky, as fs_main shades it.

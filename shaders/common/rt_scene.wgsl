@@ -12,12 +12,14 @@ struct RtSceneInfo {
     mat_base: u32,
     emitter_base: u32,
     emitter_count: u32,
-    sun_base: u32,
-    sun_count: u32,
+    // Delta lights (suns, point and spot lights), four entries each.
+    delta_base: u32,
+    delta_count: u32,
     tex_base: u32,
-    // Probability of sampling an emitter rather than a sun.
+    // Probability of sampling an emitter rather than a delta light.
     p_emitters: f32,
-    _pad: u32,
+    // Where the per-triangle attributes (shading normals, vertex colours, TEXCOORD_1) start.
+    attr_base: u32,
 }
 
 // Group 1 bindings 0, 1 (nodes, triangles): see common/bvh.wgsl.
@@ -35,6 +37,9 @@ struct Material {
     // Weight of the baker's Lambertian lobe, a folded rough metal included
     // (vlf_core::bake::glossy::BakedMaterial::diffuse_weight).
     bake_diffuse: f32,
+    // The texture coordinate set of the base-colour texture (bit 0) and of the emissive one
+    // (bit 1): set 1 where the bit is set.
+    texcoords: u32,
 }
 
 fn material(index: u32) -> Material {
@@ -42,14 +47,77 @@ fn material(index: u32) -> Material {
     let a = blob[o];
     let b = blob[o + 1u];
     let c = blob[o + 2u];
-    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y, c.z);
+    return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y, c.z,
+        bitcast<u32>(c.w));
 }
 
-// Texture coordinates of leaf-order triangle `tri` at barycentrics (b1, b2).
+// Texture coordinates (TEXCOORD_0) of leaf-order triangle `tri` at barycentrics (b1, b2).
 fn tri_uv(tri: u32, b1: f32, b2: f32) -> vec2<f32> {
     let a = blob[2u * tri];
     let b = blob[2u * tri + 1u];
     return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
+}
+
+// Attribute flags (vlf_gpu::raytrace::scene::ATTR_*).
+const ATTR_SMOOTH: u32 = 1u;
+const ATTR_COLORS: u32 = 2u;
+
+// The first attribute entry of leaf-order triangle `tri`, or NONE.
+fn tri_attributes(tri: u32) -> u32 {
+    let k = bitcast<u32>(blob[2u * tri + 1u].w);
+    if k == NONE {
+        return NONE;
+    }
+    return scene_info.attr_base + 8u * k;
+}
+
+// Texture coordinates of set `set` (0 or 1) of leaf-order triangle `tri` at (b1, b2)
+// (vlf_core::scene::Triangle::uv_at; a missing TEXCOORD_1 reads 0).
+fn tri_uv_set(tri: u32, uv_set: u32, b1: f32, b2: f32) -> vec2<f32> {
+    if uv_set == 0u {
+        return tri_uv(tri, b1, b2);
+    }
+    let o = tri_attributes(tri);
+    if o == NONE {
+        return vec2<f32>(0.0);
+    }
+    let a = blob[o + 6u];
+    let b = blob[o + 7u];
+    return a.xy * (1.0 - b1 - b2) + a.zw * b1 + b.xy * b2;
+}
+
+// The vertex colour of leaf-order triangle `tri` at (b1, b2): 1 without
+// (vlf_core::scene::Triangle::color_at).
+fn tri_color(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
+    let o = tri_attributes(tri);
+    if o == NONE || (bitcast<u32>(blob[o].w) & ATTR_COLORS) == 0u {
+        return vec3<f32>(1.0);
+    }
+    return blob[o + 3u].xyz * (1.0 - b1 - b2) + blob[o + 4u].xyz * b1 + blob[o + 5u].xyz * b2;
+}
+
+// The unit shading normal of leaf-order triangle `tri` at (b1, b2) on the side whose unit
+// geometric normal is `n`; `n` itself for a flat triangle
+// (vlf_core::pathtrace::PreparedScene::shading_normal).
+fn tri_shading_normal(tri: u32, b1: f32, b2: f32, n: vec3<f32>) -> vec3<f32> {
+    let o = tri_attributes(tri);
+    if o == NONE || (bitcast<u32>(blob[o].w) & ATTR_SMOOTH) == 0u {
+        return n;
+    }
+    let s = blob[o].xyz * (1.0 - b1 - b2) + blob[o + 1u].xyz * b1 + blob[o + 2u].xyz * b2;
+    let len = length(s);
+    if !(len > 0.0) {
+        return n;
+    }
+    let m = s / len;
+    return select(m, -m, dot(m, n) < 0.0);
+}
+
+// The base colour C (factor × texture × vertex colour) of leaf-order triangle `tri` of
+// material `m` at (b1, b2) (vlf_core::pathtrace::PreparedScene::base_color).
+fn base_color_at(tri: u32, m: Material, b1: f32, b2: f32) -> vec3<f32> {
+    let uv = tri_uv_set(tri, m.texcoords & 1u, b1, b2);
+    return m.base_color * sample_texture(m.base_texture, uv) * tri_color(tri, b1, b2);
 }
 
 // The planar face (vlf_core::scene::Triangle::face) of leaf-order triangle `tri`.
@@ -105,8 +173,9 @@ fn sample_texture(t: u32, uv: vec2<f32>) -> vec3<f32> {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; sun:
-// [to_sun, pdf], [irradiance, cdf].
+// Lights (mirrors vlf_core::pathtrace::lights). Emitter: [tri, area, pdf, cdf]; delta light
+// (DeltaLight): [position (sun: direction towards it), kind], [intensity (sun: irradiance),
+// pdf], [spot axis, cdf], [cone scale, cone offset, 1/range, 0].
 
 // Index of the emitter whose CDF interval holds u (binary search).
 fn pick_emitter(u: f32) -> u32 {
@@ -138,13 +207,65 @@ fn pick_emitter_remapped(u: vec2<f32>) -> RemappedEmitter {
     return RemappedEmitter(i, vec2<f32>(x, u.y));
 }
 
-fn pick_sun(u: f32) -> u32 {
-    for (var i = 0u; i < scene_info.sun_count; i++) {
-        if blob[scene_info.sun_base + 2u * i + 1u].w > u {
+// Index of the delta light whose CDF interval holds u (LightSet::pick_delta).
+fn pick_delta(u: f32) -> u32 {
+    for (var i = 0u; i < scene_info.delta_count; i++) {
+        if blob[scene_info.delta_base + 4u * i + 2u].w > u {
             return i;
         }
     }
-    return scene_info.sun_count - 1u;
+    return scene_info.delta_count - 1u;
+}
+
+// DeltaLight's kinds (vlf_core::pathtrace::lights::DELTA_SUN).
+const DELTA_SUN: u32 = 0u;
+
+// What delta light `i` brings to point p (DeltaLight::incident): the unit direction towards
+// it, its distance (FAR for a sun) and the irradiance on a surface facing it, the spot's
+// falloff clamp(cos · scale + offset, 0, 1)² and the range window clamp(1 − (d/range)⁴, 0, 1)
+// included.
+struct DeltaIncident {
+    wi: vec3<f32>,
+    dist: f32,
+    irradiance: vec3<f32>,
+}
+
+fn delta_incident(i: u32, p: vec3<f32>) -> DeltaIncident {
+    let o = scene_info.delta_base + 4u * i;
+    let a = blob[o];
+    let b = blob[o + 1u];
+    if bitcast<u32>(a.w) == DELTA_SUN {
+        return DeltaIncident(a.xyz, FAR, b.xyz);
+    }
+    let none = DeltaIncident(vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0));
+    let c = blob[o + 2u];
+    let d = blob[o + 3u];
+    let to = a.xyz - p;
+    let d2 = dot(to, to);
+    if !(d2 > 0.0) {
+        return none;
+    }
+    let dist = sqrt(d2);
+    let wi = to / dist;
+    let t = clamp(-dot(wi, c.xyz) * d.x + d.y, 0.0, 1.0);
+    let x = dist * d.z;
+    let x2 = x * x;
+    let window = clamp(1.0 - x2 * x2, 0.0, 1.0);
+    let e = b.xyz * (t * t * window / d2);
+    if any(e != e) || any(abs(e) > vec3<f32>(FAR)) {
+        return none;
+    }
+    return DeltaIncident(wi, dist, e);
+}
+
+// The shadow ray from `origin` towards delta light `i` (DeltaLight::shadow_ray): along a sun's
+// direction, the segment to a point or spot light's position.
+fn delta_shadow_ray(i: u32, origin: vec3<f32>, inc: DeltaIncident) -> Ray {
+    let a = blob[scene_info.delta_base + 4u * i];
+    if bitcast<u32>(a.w) == DELTA_SUN {
+        return Ray(origin, 0.0, inc.wi, FAR);
+    }
+    return Ray(origin, 0.0, a.xyz - origin, 1.0);
 }
 
 // Solid-angle pdf with which one light sample picks the point of emitter `light` seen at
@@ -165,5 +286,6 @@ fn emission_at(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let m = material(t.material);
-    return m.emission * sample_texture(m.emissive_texture, tri_uv(tri, b1, b2));
+    let uv = tri_uv_set(tri, (m.texcoords >> 1u) & 1u, b1, b2);
+    return m.emission * sample_texture(m.emissive_texture, uv);
 }

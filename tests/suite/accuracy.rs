@@ -2,24 +2,19 @@
 //! final gather as `vlf-bake bake` runs it), rendered at 256×256 with 16 samples per pixel from
 //! the views of the Mitsuba 3 references in ../shared/reference, compared by relMSE.
 //!
-//! Bounds:
-//! * issue 14 (the final gather, the default): diffuse Cornell box ≤ 5e-4 (measured 3.24e-4),
-//!   fog-room ≤ 0.036 (a third of the light field alone's 0.107; measured 0.016);
-//! * issue 15 (mirror pixels traced in pass 5, the default): mirror Cornell box ≤ 1e-3
-//!   (measured 9.48e-4); with tracing off, the tiles resampled after propagation: better than
-//!   the 3.08e-3 of the tiles as propagated (≤ 2.6e-3; measured 2.49e-3);
-//! * issue 7 (the light field alone, `--final-gather off`): diffuse Cornell box ≤ 3e-3
-//!   (measured 1.56e-3);
-//! * issue 16 (glossy metal; its lobe sampled where pass 5 traces): cornell-suzanne ≤ 3.2e-4
-//!   (half the 6.4e-4 at the issue; measured 1.70e-4 since the final gather's cosine rays
-//!   start from points spread over each texel, 2.48e-4 before, since sub-cell mirror faces
-//!   re-emit what their tiles cannot receive, 2.70e-4 before that); lava-circuit by mean
-//!   HDR-FLIP, whose reference's noise near black pixels makes relMSE meaningless
-//!   (`reference/README.md`), ≤ 0.1875 (half the issue's 0.375; measured 0.1069), its mean
-//!   radiance within 2 % of the reference's (measured 0.3 %; 22–38 % too bright at the issue).
-//! * issue 24 (guided and adaptive gather, local stopping rule, atlas denoiser): window-room
-//!   ≤ 1.5e-3 and mean FLIP ≤ 0.13 (measured 1.25e-3 / 0.108; the issue's FLIP goal of 0.06
-//!   is not met yet); cornell-box measured 2.90e-4 (bound unchanged).
+//! Bounds (issue 24: no shared scene worse than before its guided gather, denoiser and leak
+//! fixes; each measured figure is the 2-core VM's, lavapipe, at the commit that last moved it):
+//! * diffuse Cornell box ≤ 3.3e-4 (measured 2.94e-4; 3.24e-4 before issue 24); the light field
+//!   alone (`--final-gather off`) ≤ 3e-3 (measured 1.56e-3);
+//! * mirror Cornell box, mirror pixels traced in pass 5 (the default) ≤ 1e-3 (measured 7.15e-4);
+//!   with the tiles resampled after propagation ≤ 2.6e-3 (measured 2.28e-3; 3.08e-3 as
+//!   propagated);
+//! * fog-room ≤ 1.6e-2 (measured 1.30e-2; the reference's own noise ~3e-3);
+//! * cornell-suzanne (glossy Suzanne, lobe sampled in pass 5) ≤ 1.8e-4 (measured 1.30e-4);
+//! * lava-circuit by mean HDR-FLIP, whose reference's noise near black pixels makes relMSE
+//!   meaningless (`reference/README.md`), ≤ 0.11 (measured 0.104), its mean radiance within 2 %
+//!   of the reference's (measured 0.5 %);
+//! * window-room (issue 24) ≤ 8e-4, mean FLIP ≤ 0.11 (measured 6.67e-4, 0.104).
 
 use glam::Vec3;
 use vlf_core::bake::{BakeScene, Quality, auto};
@@ -56,7 +51,12 @@ fn stills_and_reference(
     sky: Vec3,
 ) -> Option<(Vec<Image>, Image)> {
     let ctx = gpu()?;
-    let scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
+    let mut scene = vlf_core::scene::load(&shared_dir().join("scenes").join(scene)).unwrap();
+    // The references shade every face flat except lamp-room's (`reference/README.md`): what
+    // `vlf-bake bake --flat-normals` bakes.
+    if !scene.source.to_string_lossy().contains("lamp-room") {
+        scene.flatten_normals();
+    }
     // What `vlf-bake bake` does by default: the auto preset refined from the scene.
     let mut params = auto::choose(&scene, Quality::Auto, final_gather).params;
     params.sky = sky;
@@ -134,7 +134,7 @@ fn default_quality_diffuse_cornell_box_matches_path_traced_reference() {
         return;
     };
     eprintln!("diffuse Cornell box, default quality (final gather): relMSE {e:.3e}");
-    assert!(e <= 5e-4, "relMSE {e:.3e} > 5e-4");
+    assert!(e <= 3.3e-4, "relMSE {e:.3e} > 3.3e-4");
 }
 
 #[test]
@@ -184,7 +184,7 @@ fn default_quality_fog_room_matches_path_traced_reference() {
         return;
     };
     eprintln!("fog-room, default quality (final gather): relMSE {e:.3e}");
-    assert!(e <= 0.036, "relMSE {e:.3e} > 0.036");
+    assert!(e <= 0.016, "relMSE {e:.3e} > 0.016");
 }
 
 #[test]
@@ -200,7 +200,7 @@ fn default_quality_cornell_suzanne_matches_path_traced_reference() {
         return;
     };
     eprintln!("cornell-suzanne, default quality (final gather, lobe traced): relMSE {e:.3e}");
-    assert!(e <= 3.2e-4, "relMSE {e:.3e} > 3.2e-4");
+    assert!(e <= 1.8e-4, "relMSE {e:.3e} > 1.8e-4");
 }
 
 #[test]
@@ -225,7 +225,7 @@ fn default_quality_lava_circuit_matches_path_traced_reference_by_flip() {
     eprintln!(
         "lava-circuit, default quality: mean HDR-FLIP {flip:.4}, mean radiance / reference's {ratio:.3?}"
     );
-    assert!(flip <= 0.1875, "mean HDR-FLIP {flip:.4} > 0.1875");
+    assert!(flip <= 0.11, "mean HDR-FLIP {flip:.4} > 0.11");
     for r in ratio {
         assert!(
             (r - 1.0).abs() <= 0.02,
@@ -237,8 +237,10 @@ fn default_quality_lava_circuit_matches_path_traced_reference_by_flip() {
 #[test]
 fn default_quality_window_room_matches_path_traced_reference() {
     // Sky (1, 1, 1) only, through two windows (issue 24: 9.4e-3 and mean FLIP 0.35 at the
-    // issue; guided and adaptive sampling, the local stopping rule and the denoiser: measured
-    // 1.25e-3 and 0.108 on the 2-core VM). Propagated by the CPU reference (bit-identical).
+    // issue; guided and adaptive sampling, the local stopping rule and the denoiser: 1.25e-3
+    // and 0.108; no light across the window wall's head: measured 6.67e-4 and 0.104). The
+    // issue's FLIP goal, 0.06, is not met (docs/GATHER.md says why); the bound keeps what was
+    // reached. Propagated by the CPU reference (bit-identical).
     let Some((stills, refimg)) = stills_and_reference(
         "window-room/window-room.glb",
         "window-room-ref.exr",
@@ -253,6 +255,6 @@ fn default_quality_window_room_matches_path_traced_reference() {
     let e = image::rel_mse(&stills[0], &refimg);
     let flip = image::flip(&stills[0], &refimg).mean;
     eprintln!("window-room, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
-    assert!(e <= 1.5e-3, "relMSE {e:.3e} > 1.5e-3");
-    assert!(flip <= 0.13, "mean HDR-FLIP {flip:.4} > 0.13");
+    assert!(e <= 8e-4, "relMSE {e:.3e} > 8e-4");
+    assert!(flip <= 0.11, "mean HDR-FLIP {flip:.4} > 0.11");
 }

@@ -13,5 +13,6 @@ mod render;
 mod render_encoding;
 mod render_mirrors;
 mod render_textures;
+mod shading_gpu;
 mod stability_gpu;
 mod transmission_gpu;

@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, Iterations, LightField};
 use vlf_gpu::GpuContext;
-use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
+use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::targets::read_texture;
 use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Pass, Renderer, Tonemap};
 use vlf_tests::{gpu, repo_dir, shared_dir};
@@ -223,7 +223,7 @@ fn face_ids_and_positions_match_cpu_ray_cast() {
 fn final_radiance_matches_cpu_bilinear_lookup() {
     let Some(ctx) = gpu() else { return };
     let lf = cornell();
-    let offsets = lf.shading.texture_offsets();
+    let lookup = SurfaceLookup::new(lf);
     for cam in [gltf_camera(lf), inside_camera(lf)] {
         let f = frame(ctx, lf, &cam);
         let mut faces_seen = 0;
@@ -238,8 +238,7 @@ fn final_radiance_matches_cpu_bilinear_lookup() {
             let bf = &lf.faces[face as usize];
             let p = Vec4::from(f.position[i]).truncate();
             let side = visible_side(bf, cam.position, p);
-            let uv = Vec2::from(f.uv[i]);
-            let want = surface_radiance(lf, &offsets, face, side, p, uv);
+            let want = surface_radiance(lf, &lookup, face, side, p, &f.surface(i));
             let tol = 1e-4 * want.abs().max_element().max(1e-3);
             assert!(
                 (got - want).abs().max_element() <= tol,

@@ -3,12 +3,14 @@
 //! `Radiance::get` does (so a loaded file renders as it did when the reader decoded to f32),
 //! and both encodings must render the light field they hold.
 
-use glam::{Vec2, Vec4};
+use glam::Vec4;
 use vlf_core::lightfield::{
     BakeParams, Iterations, LightField, Radiance, RadianceEncoding, encoding::f16_decode,
 };
 use vlf_gpu::readback::{read_buffer, storage_buffer};
-use vlf_gpu::render::final_radiance::{atlas_irradiance, surface_radiance, visible_side};
+use vlf_gpu::render::final_radiance::{
+    SurfaceLookup, atlas_irradiance, surface_radiance, visible_side,
+};
 use vlf_gpu::render::upload::rho_over_pi;
 use vlf_gpu::render::upload::{ATLAS_WIDTH, radiance_texture};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
@@ -172,7 +174,7 @@ fn both_encodings_render_their_radiance() {
         let mut images = Vec::new();
         for enc in RadianceEncoding::ALL {
             let lf = with_encoding(lf, enc);
-            let offsets = lf.shading.texture_offsets();
+            let lookup = SurfaceLookup::new(&lf);
             let mut r = Renderer::new(ctx, &lf).unwrap();
             // Mirror pixels read their stored tiles (the bound below is theirs); traced ones
             // read the atlas at their hit (tests/suite/render_mirrors.rs).
@@ -187,7 +189,7 @@ fn both_encodings_render_their_radiance() {
                 let bf = &lf.faces[face as usize];
                 let p = Vec4::from(f.position[i]).truncate();
                 let side = visible_side(bf, cam.position, p);
-                let want = surface_radiance(&lf, &offsets, face, side, p, Vec2::from(f.uv[i]));
+                let want = surface_radiance(&lf, &lookup, face, side, p, &f.surface(i));
                 let got = Vec4::from(f.radiance[i]).truncate();
                 let tol = 1e-4 * want.abs().max_element().max(1e-3);
                 assert!(

@@ -8,7 +8,7 @@ use glam::{Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, Iterations, LightField};
 use vlf_core::scene::{Scene, SceneBuilder};
 use vlf_gpu::GpuContext;
-use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
+use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
 use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
 use vlf_tests::{gpu, shared_dir, window_frame};
@@ -77,7 +77,7 @@ fn against_specification(
     on: &FrameData,
     off: &FrameData,
 ) -> Vec<(u32, mirror_trace::TracedSpecular, f32)> {
-    let offsets = lf.shading.texture_offsets();
+    let lookup = SurfaceLookup::new(lf);
     let mut out = Vec::new();
     for i in 0..(W * H) as usize {
         let face = on.face_id[i];
@@ -88,19 +88,10 @@ fn against_specification(
         }
         let p = Vec4::from(on.position[i]).truncate();
         let side = visible_side(&lf.faces[face as usize], cam.position, p);
-        let uv = on.uv[i].into();
-        let t = mirror_trace::traced_specular(
-            lf,
-            bvh,
-            &offsets,
-            cam.position,
-            face,
-            p,
-            uv,
-            i as u32,
-            0,
-        );
-        let surface = surface_radiance(lf, &offsets, face, side, p, uv);
+        let s = on.surface(i);
+        let t =
+            mirror_trace::traced_specular(lf, bvh, &lookup, cam.position, face, p, &s, i as u32, 0);
+        let surface = surface_radiance(lf, &lookup, face, side, p, &s);
         let want = surface + t.radiance + t.tiles * (rgb(off.radiance[i]) - surface);
         let got = rgb(on.radiance[i]);
         out.push((
@@ -430,7 +421,6 @@ fn glossy_plane_under_uniform_sky_reads_directional_albedo_times_sky() {
         );
         let albedo = GgxAlbedo::new(alpha);
         let bvh = mirror_trace::build_bvh(&lf);
-        let offsets = lf.shading.texture_offsets();
         let mut r = Renderer::new(ctx, &lf).unwrap();
         for deg in [0.0f32, 40.0, 70.0] {
             let (s, c) = deg.to_radians().sin_cos();
@@ -452,11 +442,11 @@ fn glossy_plane_under_uniform_sky_reads_directional_albedo_times_sky() {
                 let t = mirror_trace::traced_specular(
                     &lf,
                     &bvh,
-                    &offsets,
+                    &SurfaceLookup::new(&lf),
                     cam.position,
                     face,
                     p,
-                    on.uv[i].into(),
+                    &on.surface(i),
                     i as u32,
                     0,
                 );

@@ -8,7 +8,7 @@ use vlf_core::lightfield::{BakeParams, Iterations, LightField};
 use vlf_core::scene::{
     FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture, WrapMode,
 };
-use vlf_gpu::render::final_radiance::{surface_radiance, visible_side};
+use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
 use vlf_tests::{gpu, window_frame};
 
@@ -83,7 +83,7 @@ fn assert_matches_cpu_mirror(
     f: &vlf_gpu::render::FrameData,
     cam: &CameraView,
 ) -> usize {
-    let offsets = lf.shading.texture_offsets();
+    let lookup = SurfaceLookup::new(lf);
     let mut seen = 0;
     for i in 0..(f.width * f.height) as usize {
         let face = f.face_id[i];
@@ -94,7 +94,7 @@ fn assert_matches_cpu_mirror(
         let bf = &lf.faces[face as usize];
         let p = Vec4::from(f.position[i]).truncate();
         let side = visible_side(bf, cam.position, p);
-        let want = surface_radiance(lf, &offsets, face, side, p, Vec2::from(f.uv[i]));
+        let want = surface_radiance(lf, &lookup, face, side, p, &f.surface(i));
         let got = Vec4::from(f.radiance[i]).truncate();
         assert!(
             (got - want).abs().max_element() <= 1e-4 * want.max_element().max(1e-3),

@@ -132,7 +132,10 @@ pub fn chart(root: &Path, args: &[String]) -> Result<()> {
                 .arg(&csv)
                 .args(["--grid", if quick { "quick" } else { s.grid }])
                 .args(["--spp-max", if quick { "16" } else { "256" }])
-                .args(s.view);
+                .args(s.view)
+                // The references of these scenes shade every face flat
+                // (../shared/reference/README.md; only lamp-room's uses its NORMALs).
+                .arg("--flat-normals");
             if s.high && !quick {
                 c.arg("--with-high");
             }

@@ -49,12 +49,11 @@ pub fn resolve_params(
     apply_explicit(a, &mut p);
     if let Some(sky) = a.sky_if_unlit
         && p.sky == glam::Vec3::ZERO
-        && !scene.has_emitters()
-        && scene.suns.is_empty()
+        && !scene.has_lights()
     {
         p.sky = glam::Vec3::from(sky.0);
         let msg = format!(
-            "no emitter and no sun: lit by a sky of radiance {:?} (--sky-if-unlit)",
+            "no emitter, sun or lamp: lit by a sky of radiance {:?} (--sky-if-unlit)",
             sky.0
         );
         log::warn!("{}: {msg}", scene.source.display());
@@ -224,13 +223,15 @@ fn finish(
     threads: usize,
 ) -> anyhow::Result<vlf_core::pipeline::Finished> {
     use vlf_core::pipeline;
-    // The GPU gather samples fixed counts only: guided or adaptive sampling gathers on the CPU.
+    // The GPU gather samples fixed counts only and has no panes yet: guided or adaptive
+    // sampling, the denoiser and glazed scenes gather on the CPU.
     let gpu_gather = params
         .final_gather
-        .filter(|g| g.sampling.is_fixed() && !g.denoise);
+        .filter(|g| g.sampling.is_fixed() && !g.denoise && !scene.has_panes());
     if let (Compute::Gpu(..), Some(_), None) = (compute, params.final_gather, gpu_gather) {
         log::info!(
-            "final gather on the CPU: the GPU gather has no guided or adaptive sampling or denoiser"
+            "final gather on the CPU: the GPU gather has no guided or adaptive sampling, \
+             denoiser or glass panes"
         );
     }
     let (Compute::Gpu(ctx, _), Some(gp)) = (compute, gpu_gather) else {
@@ -277,7 +278,10 @@ pub fn bake_scene(
     progress: &mut dyn FnMut(u64, u64, &str),
 ) -> anyhow::Result<BakeReport> {
     let t = Instant::now();
-    let scene = vlf_core::scene::load(scene_path)?;
+    let mut scene = vlf_core::scene::load(scene_path)?;
+    if args.flat_normals {
+        scene.flatten_normals();
+    }
     let (params, auto_reasons) = resolve_params(args, &scene)?;
     for r in &auto_reasons {
         log::info!("{}: {r}", scene_path.display());

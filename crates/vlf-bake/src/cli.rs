@@ -169,10 +169,15 @@ pub struct BakeArgs {
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
-    /// Sky radiance to use only for scenes with no emitter, no sun and no --sky (which would
+    /// Sky radiance to use only for scenes with no emitter, no light (sun, point, spot) and no --sky (which would
     /// otherwise be refused as unlit). `batch` defaults it to 1,1,1; `bake` has no default.
     #[arg(long, value_name = "R,G,B")]
     pub sky_if_unlit: Option<Rgb>,
+    /// Ignore the meshes' NORMALs: every face shades flat (the gather gathers about the
+    /// faces' own normals, mirrors reflect about them), as the shared references other than
+    /// lamp-room are rendered. By default NORMALs are shading normals.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Memory budget of one bake, e.g. `2G`, `512M` (K, M, G, T are powers of 1024). The bake's
     /// memory is planned before propagating (print it with -v); when the plan exceeds the
     /// budget, --resolution is halved (with a warning) until it fits, and the bake is refused
@@ -220,7 +225,7 @@ pub enum Command {
                       progress bar on stderr (on a terminal), and with --json a report written \
                       atomically after every scene.\n\n\
                       The device is opened once for the whole batch. Scenes without emitters, \
-                      suns or --sky fail with a clear message (no sky is added silently: pass \
+                      lights or --sky fail with a clear message (no sky is added silently: pass \
                       --sky R,G,B to light them). Ctrl-C stops cleanly: finished outputs stay, \
                       the scene in progress leaves no file under its name (its temporary file \
                       is removed), the report marks it `interrupted`, exit code 130. Stale \
@@ -253,7 +258,7 @@ pub enum Command {
         /// Bake scenes whose output is up to date too.
         #[arg(long)]
         force: bool,
-        /// Refuse scenes with no emitter, no sun and no --sky instead of lighting them with a
+        /// Refuse scenes with no emitter, no light (sun, point, spot) and no --sky instead of lighting them with a
         /// white sky of radiance 1 (the batch default for --sky-if-unlit).
         #[arg(long)]
         no_default_sky: bool,
@@ -442,6 +447,10 @@ pub struct ReferenceArgs {
     /// Constant sky radiance `R,G,B` (or one value) seen by rays that leave the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Ignore the meshes' NORMALs and shade every face flat (the shared references other than
+    /// lamp-room are rendered so); by default NORMALs are shading normals.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Seed of the random streams (the image is deterministic for a given seed).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
@@ -505,6 +514,9 @@ pub struct SweepArgs {
     /// Constant sky radiance `R,G,B` for the bakes, the path tracer and radiosity alike.
     #[arg(long)]
     pub sky: Option<Rgb>,
+    /// Ignore the meshes' NORMALs: bakes and the path tracer shade every face flat.
+    #[arg(long)]
+    pub flat_normals: bool,
     /// Path tracer curve: 1, 2, 4, … up to this many samples per pixel (0: no path tracer).
     #[arg(long, default_value_t = 256)]
     pub spp_max: u32,

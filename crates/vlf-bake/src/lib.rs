@@ -167,24 +167,29 @@ fn info(path: &Path, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What `inspect --json` prints: the scene's counts and each material's model.
+/// What `vlf-bake inspect --json` prints: the scene's counts, each material's model (lobes, mask,
+/// pane) and how it shades, and the lights.
 #[derive(serde::Serialize)]
-struct InspectReport {
+struct Inspection {
     #[serde(flatten)]
     summary: vlf_core::scene::SceneSummary,
     /// (name, model) of every material ([`vlf_core::scene::Material::model`]).
     material_models: Vec<(String, String)>,
+    shading: Vec<vlf_core::scene::MaterialShading>,
+    lights: Vec<LightReport>,
 }
 
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
-    let report = InspectReport {
+    let report = Inspection {
         summary: scene.summary(),
         material_models: scene
             .materials
             .iter()
             .map(|m| (m.name.clone(), m.model()))
             .collect(),
+        shading: scene.material_shading(),
+        lights: scene.lights.iter().map(LightReport::of).collect(),
     };
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -192,13 +197,111 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     }
     println!("scene {}", path.display());
     println!("{}", serde_json::to_string_pretty(&report.summary)?);
-    for (i, (name, model)) in report.material_models.iter().enumerate() {
-        println!("material {i} {name:?}: {model}");
+    for (i, ((name, model), m)) in report
+        .material_models
+        .iter()
+        .zip(&report.shading)
+        .enumerate()
+    {
+        println!("material {i} {name:?}: {model}; {}", describe_shading(m));
+    }
+    for l in &report.lights {
+        println!("{l}");
     }
     for w in &scene.warnings {
         println!("warning: {w}");
     }
     Ok(())
+}
+
+/// A point or spot light as `inspect` lists it.
+#[derive(serde::Serialize)]
+struct LightReport {
+    name: Option<String>,
+    kind: &'static str,
+    position: [f32; 3],
+    direction: [f32; 3],
+    /// color × intensity (W/sr, radiometric).
+    intensity: [f32; 3],
+    /// Spot: (inner, outer) cone angles in radians.
+    cone: Option<[f32; 2]>,
+    range: Option<f32>,
+}
+
+impl LightReport {
+    fn of(l: &vlf_core::scene::PunctualLight) -> LightReport {
+        use vlf_core::scene::PunctualKind;
+        let (kind, cone) = match l.kind {
+            PunctualKind::Point => ("point", None),
+            PunctualKind::Spot { inner, outer } => ("spot", Some([inner, outer])),
+        };
+        LightReport {
+            name: l.name.clone(),
+            kind,
+            position: l.position.to_array(),
+            direction: l.direction.to_array(),
+            intensity: l.intensity.to_array(),
+            cone,
+            range: l.range,
+        }
+    }
+}
+
+impl std::fmt::Display for LightReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [x, y, z] = self.position;
+        let [r, g, b] = self.intensity;
+        write!(f, "light: {}", self.kind)?;
+        if let Some(n) = &self.name {
+            write!(f, " {n:?}")?;
+        }
+        write!(
+            f,
+            " at ({x:.3}, {y:.3}, {z:.3}), color × intensity ({r:.4}, {g:.4}, {b:.4}) W/sr"
+        )?;
+        if let Some([inner, outer]) = self.cone {
+            let [dx, dy, dz] = self.direction;
+            write!(
+                f,
+                ", pointing ({dx:.3}, {dy:.3}, {dz:.3}), cone {inner:.4}–{outer:.4} rad ({:.2}°–{:.2}°)",
+                inner.to_degrees(),
+                outer.to_degrees()
+            )?;
+        }
+        match self.range {
+            Some(r) => write!(f, ", range {r} (windowed)"),
+            None => write!(f, ", no range"),
+        }
+    }
+}
+
+/// One line on how a material shades: smooth or flat, vertex colours, texture coordinate sets,
+/// an ignored normal map.
+fn describe_shading(m: &vlf_core::scene::MaterialShading) -> String {
+    let mut parts = vec![match (m.triangles, m.smooth_triangles) {
+        (0, _) => "no triangles".to_string(),
+        (_, 0) => format!("{} triangles, flat", m.triangles),
+        (t, s) if s == t => format!("{t} triangles, smooth (NORMAL shading normals)"),
+        (t, s) => format!("{t} triangles, {s} smooth (NORMAL shading normals), the rest flat"),
+    }];
+    if m.colored_triangles > 0 {
+        parts.push(format!(
+            "vertex colours (COLOR_0) on {} triangles",
+            m.colored_triangles
+        ));
+    }
+    for (slot, set) in [
+        ("base colour", m.base_color_texcoord),
+        ("emissive", m.emissive_texcoord),
+    ] {
+        if let Some(set) = set {
+            parts.push(format!("{slot} texture on TEXCOORD_{set}"));
+        }
+    }
+    if m.normal_map_ignored {
+        parts.push("normalTexture ignored (normal maps are not modelled)".into());
+    }
+    parts.join("; ")
 }
 
 /// The compute device `--device` chose, with the reason (for `--json` and the summary line).

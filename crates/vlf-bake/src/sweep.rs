@@ -149,7 +149,7 @@ impl GridPoint {
         self
     }
 
-    fn args(&self, sky: Option<Rgb>) -> BakeArgs {
+    fn args(&self, sky: Option<Rgb>, flat_normals: bool) -> BakeArgs {
         BakeArgs {
             quality: self.preset.unwrap_or(QualityArg::Auto),
             directions: self.directions,
@@ -168,6 +168,7 @@ impl GridPoint {
             denoise: None,
             sky,
             sky_if_unlit: None,
+            flat_normals,
             max_memory: None,
             // Every core, as the path tracer and radiosity use.
             threads: 0,
@@ -339,7 +340,10 @@ fn render(
 pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyhow::Result<()> {
     let reference = image::read_exr(&args.reference)?;
     let (w, h) = (reference.width, reference.height);
-    let scene = vlf_core::scene::load(&args.scene)?;
+    let mut scene = vlf_core::scene::load(&args.scene)?;
+    if args.flat_normals {
+        scene.flatten_normals();
+    }
     let view = View {
         camera: args.camera,
         look: match (args.look_from, args.look_at) {
@@ -433,7 +437,7 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
         if !args.only.is_empty() && !args.only.contains(&p.label) {
             continue;
         }
-        let bake_args = p.args(sky);
+        let bake_args = p.args(sky, args.flat_normals);
         let out = tmp.join(format!("bake-{i}.vlf"));
         let report = match bake_scene(
             &args.scene,
@@ -520,7 +524,7 @@ fn radiosity(
             resolution: Some(n),
             ..GridPoint::preset(QualityArg::Auto, "radiosity")
         };
-        let (params, _) = resolve_params(&point.args(sky), scene)?;
+        let (params, _) = resolve_params(&point.args(sky, false), scene)?;
         let settings = RadiositySettings {
             rays_per_patch: rays,
             threshold: 1e-4,

@@ -94,6 +94,7 @@ fn main() {
             &acc,
             &unshot,
             Vec3::ZERO,
+            None,
             &mut next,
             &mut irr,
         );

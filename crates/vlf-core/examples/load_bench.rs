@@ -116,6 +116,8 @@ fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
                 ..SurfaceMaterial::opaque_default()
             }],
             uvs: vec![[[0.0; 2]; 3]; tris.len()],

@@ -2,15 +2,30 @@
 //!
 //! [`load`] reads a `.gltf` or `.glb` file into a [`Scene`]: world-space triangles
 //! (node transforms applied), materials mapped to the propagator's material model,
-//! decoded base-colour and emissive textures, cameras, directional lights (suns),
-//! the planar polygons ([`Face`]s) the light field is stored on, and the
+//! decoded base-colour and emissive textures, cameras, directional lights (suns), point
+//! and spot lights, the planar polygons ([`Face`]s) the light field is stored on, and the
 //! [`Similarity`] that maps the scene into the unit sphere of VLF coordinates.
 //!
 //! # Conventions (see `shared/reference/README.md`)
 //! - **Front face** = counter-clockwise in world space. A node whose world transform
 //!   has a negative determinant reverses winding; the importer swaps two corners of
 //!   such triangles so that every [`Triangle`] and [`Face`] here is CCW-front in
-//!   world space. Vertex normals are ignored: faces are planar and flat shaded.
+//!   world space.
+//! - **Shading normals**: a primitive's `NORMAL`s are shading normals ([`Triangle::normals`]),
+//!   transformed with the inverse transpose of the node's world matrix and renormalised. Faces
+//!   stay planar (the light field is stored on them); only shading reads the interpolated
+//!   normal. A triangle whose three normals agree with its geometric normal within 0.08°
+//!   ([`FACE_COS_TOLERANCE`]) is stored flat (`None`), so flat meshes exported with normals
+//!   shade exactly as without them. Normals that are not finite, zero, or on the back of their
+//!   triangle (dot ≤ 0 with its geometric normal) are replaced by the geometric normal, with
+//!   one warning per primitive instance giving their number. [`Scene::flatten_normals`] drops
+//!   them all (`--flat-normals`).
+//! - **Vertex colours**: `COLOR_0` (VEC3 or VEC4, float or normalised unsigned byte/short,
+//!   linear) multiplies the base colour factor and texture ([`Triangle::colors`]; alpha is
+//!   not read). Non-finite components read 1 and values are clamped to [0, 1], with a warning.
+//! - **Texture coordinates**: `TEXCOORD_0` and `TEXCOORD_1` are imported; each texture slot
+//!   reads the set its `textureInfo.texCoord` names ([`TexRef::texcoord`]; sets above 1 are
+//!   read as set 0 with a warning).
 //! - **Materials**: see [`MaterialKind`] for the metallic/roughness mapping.
 //!   `emission = emissiveFactor × KHR_materials_emissive_strength` (× the emissive
 //!   texture) is radiance, emitted from the front face only.
@@ -18,6 +33,13 @@
 //!   textures are sRGB-decoded (the only kinds imported).
 //! - **Cameras** look down their local −Z with +Y up; `yfov` is vertical.
 //! - **Suns**: `irradiance = color × intensity`, read radiometrically.
+//! - **Point and spot lights** ([`PunctualLight`]): radiant intensity `I = color × intensity`
+//!   (W/sr, read radiometrically), irradiance `I·cos θ/d²` at distance d; spots fall off
+//!   between their inner and outer cone angles by the extension's recommended smooth curve, and
+//!   a `range` windows the inverse-square law by the extension's recommended
+//!   `clamp(1 − (d/range)⁴, 0, 1)` ([`PunctualLight::attenuation`]). Bad values (negative or
+//!   non-finite colour, intensity or range, cone angles outside `0 ≤ inner < outer ≤ π/2`) are
+//!   errors naming the light.
 //!
 //! # Errors and warnings
 //! Every fatal problem is a [`SceneError`] whose message names the element (buffer,
@@ -38,6 +60,8 @@ mod builder;
 mod error;
 mod faces;
 mod gltf_import;
+mod lights;
+mod material;
 mod texture;
 mod uri;
 
@@ -49,6 +73,11 @@ use serde::{Deserialize, Serialize};
 
 pub use builder::SceneBuilder;
 pub use error::SceneError;
+pub use lights::{PunctualKind, PunctualLight, Sun};
+pub use material::{
+    AlphaMode, DEFAULT_IOR, DIFFUSE_MAX_METALLIC, METAL_MIN_METALLIC, MIRROR_MAX_ROUGHNESS,
+    Material, MaterialKind, TexRef, Transparency, lobes, pane_reflectance,
+};
 pub use texture::{FilterMode, Texture, WrapMode};
 
 /// Largest number of triangles [`load`] accepts (after instancing); more is
@@ -74,9 +103,64 @@ pub struct Triangle {
     pub material: u32,
     /// Index into [`Scene::faces`] of the planar polygon holding this triangle.
     pub face: u32,
+    /// Unit shading normals at the corners (world space, each on the front side of the
+    /// triangle: dot > 0 with [`Triangle::normal`]); `None` for a flat triangle.
+    #[serde(default)]
+    pub normals: Option<[Vec3; 3]>,
+    /// `COLOR_0` at the corners (linear RGB in [0, 1]); `None` without vertex colours.
+    #[serde(default)]
+    pub colors: Option<[Vec3; 3]>,
+    /// `TEXCOORD_1` at the corners; `None` when the primitive has none (reads 0).
+    #[serde(default)]
+    pub uv1: Option<[Vec2; 3]>,
+}
+
+/// A triangle's corners beyond their positions: what [`SceneBuilder::triangle_with`] takes
+/// (the fields of [`Triangle`] of the same names).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Corners {
+    pub uv: [Vec2; 3],
+    pub uv1: Option<[Vec2; 3]>,
+    pub normals: Option<[Vec3; 3]>,
+    pub colors: Option<[Vec3; 3]>,
+}
+
+/// Barycentric blend `a·(1 − b1 − b2) + b·b1 + c·b2` of three corner values.
+pub fn blend<T>(v: &[T; 3], b1: f32, b2: f32) -> T
+where
+    T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    v[0] * (1.0 - b1 - b2) + v[1] * b1 + v[2] * b2
 }
 
 impl Triangle {
+    /// The corner texture coordinates of set `set` (0 or 1; a missing `TEXCOORD_1` reads 0).
+    pub fn uv_set(&self, set: u32) -> [Vec2; 3] {
+        if set == 1 {
+            self.uv1.unwrap_or([Vec2::ZERO; 3])
+        } else {
+            self.uv
+        }
+    }
+
+    /// Texture coordinates of set `set` at barycentrics `(b1, b2)` (weights of corners 1, 2).
+    pub fn uv_at(&self, set: u32, b1: f32, b2: f32) -> Vec2 {
+        blend(&self.uv_set(set), b1, b2)
+    }
+
+    /// The vertex colour at barycentrics `(b1, b2)`; 1 without vertex colours.
+    pub fn color_at(&self, b1: f32, b2: f32) -> Vec3 {
+        self.colors.map_or(Vec3::ONE, |c| blend(&c, b1, b2))
+    }
+
+    /// The unit shading normal of the front side at barycentrics `(b1, b2)`: the corner
+    /// normals interpolated and renormalised; `None` for a flat triangle (its geometric
+    /// normal shades it).
+    pub fn shading_normal_at(&self, b1: f32, b2: f32) -> Option<Vec3> {
+        let n = blend(&self.normals?, b1, b2).normalize_or_zero();
+        (n != Vec3::ZERO).then_some(n)
+    }
+
     /// Unnormalised geometric normal `(p1 − p0) × (p2 − p0)`; its length is twice the area.
     pub fn cross(&self) -> Vec3 {
         (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0])
@@ -148,302 +232,6 @@ pub struct Face {
     pub extent: Vec2,
 }
 
-/// Reference to an entry of [`Scene::textures`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct TexRef {
-    /// Index into [`Scene::textures`] (not the glTF texture index).
-    pub index: u32,
-    /// The glTF `texCoord` set. Only `TEXCOORD_0` is imported
-    /// ([`Triangle::uv`]); other sets produce a warning and are sampled with set 0.
-    pub texcoord: u32,
-}
-
-/// Metallic factor at or below which a material is purely Lambertian
-/// (`shared/reference/README.md`).
-pub const DIFFUSE_MAX_METALLIC: f32 = 0.01;
-/// Metallic factor at or above which a material is purely metal.
-pub const METAL_MIN_METALLIC: f32 = 0.99;
-/// Roughness at or below which the metal lobe is a perfect mirror.
-pub const MIRROR_MAX_ROUGHNESS: f32 = 0.05;
-
-/// Lobes of a glTF (metallic, roughness) pair under the conventions of
-/// `shared/reference/README.md`: `(diffuse weight, GGX α)`; the metal lobe has weight
-/// `1 − diffuse weight`, and α = 0 means it is a perfect mirror (α = r² otherwise).
-pub fn lobes(metallic: f32, roughness: f32) -> (f32, f32) {
-    let w_diffuse = if metallic <= DIFFUSE_MAX_METALLIC {
-        1.0
-    } else if metallic >= METAL_MIN_METALLIC {
-        0.0
-    } else {
-        1.0 - metallic
-    };
-    let alpha = if roughness <= MIRROR_MAX_ROUGHNESS {
-        0.0
-    } else {
-        roughness * roughness
-    };
-    (w_diffuse, alpha)
-}
-
-/// Which lobes a surface has; derived from the glTF metallic factor m (missing factors
-/// default to 1 as in the glTF spec). The metal lobe is a perfect mirror of reflectance C
-/// when the roughness r ≤ 0.05 and a GGX lobe with α = r² and reflectance C otherwise (no
-/// Fresnel; [`Material::specular_alpha`]); how the baker models it (mirror, directional
-/// tiles, or folded into the diffuse part) is its own choice (`bake::glossy`).
-///
-/// | m | kind |
-/// |---|---|
-/// | m ≤ 0.01 | [`Diffuse`](MaterialKind::Diffuse), albedo C |
-/// | m ≥ 0.99 | [`Mirror`](MaterialKind::Mirror): the metal lobe alone |
-/// | 0.01 < m < 0.99 | [`Mixed`](MaterialKind::Mixed) `{ specular: m }` |
-///
-/// (C = base colour factor × base-colour texture.)
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum MaterialKind {
-    /// Lambertian reflection with albedo C.
-    Diffuse,
-    /// The metal lobe alone, reflectance C at every angle (no Fresnel): a perfect mirror, or a
-    /// GGX lobe when rough.
-    Mirror,
-    /// `(1 − specular)·Lambert(C) + specular·metal(C)`.
-    Mixed {
-        /// Weight of the metal lobe (the metallic factor), in (0.01, 0.99).
-        specular: f32,
-    },
-}
-
-impl MaterialKind {
-    /// The kind of a metallic factor (the thresholds of [`lobes`]).
-    pub fn from_metallic(metallic: f32) -> MaterialKind {
-        if metallic <= DIFFUSE_MAX_METALLIC {
-            MaterialKind::Diffuse
-        } else if metallic >= METAL_MIN_METALLIC {
-            MaterialKind::Mirror
-        } else {
-            MaterialKind::Mixed { specular: metallic }
-        }
-    }
-}
-
-/// A surface material (see [`MaterialKind`] for the reflection model).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Material {
-    /// glTF name, or `"material N"` when unnamed (`"default"` for the glTF default material).
-    pub name: String,
-    /// Linear RGB base colour factor (alpha ignored), clamped to [0, 1].
-    pub base_color: Vec3,
-    /// Base-colour texture (multiplies `base_color`).
-    pub base_color_texture: Option<TexRef>,
-    /// Emitted radiance factor: `emissiveFactor × KHR_materials_emissive_strength`.
-    /// Emission is one-sided (front face only).
-    pub emission: Vec3,
-    /// Emissive texture (multiplies `emission`).
-    pub emissive_texture: Option<TexRef>,
-    /// glTF `doubleSided` (informative: surfaces reflect alike from both sides).
-    pub double_sided: bool,
-    /// Reflection model.
-    pub kind: MaterialKind,
-    /// glTF metallic factor as read (clamped to [0, 1]).
-    pub metallic: f32,
-    /// glTF roughness factor as read (clamped to [0, 1]).
-    pub roughness: f32,
-    /// Where the surface lets light through: alpha cut-outs and thin glass panes.
-    pub transparency: Transparency,
-}
-
-/// glTF `alphaMode`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum AlphaMode {
-    /// Alpha is ignored.
-    #[default]
-    Opaque,
-    /// Where the coverage α (baseColorFactor.a × the base-colour texture's alpha) is below
-    /// [`Transparency::alpha_cutoff`] there is no surface.
-    Mask,
-    /// Coverage approximated by a threshold at α = ½: modelled as [`Mask`](AlphaMode::Mask) with a
-    /// cutoff of 0.5 (see `docs/PROPAGATION.md`, *Alpha masks*).
-    Blend,
-}
-
-/// How a material lets light through (`shared/reference/README.md`: *Alpha*, *Thin
-/// transmission*).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Transparency {
-    /// glTF `alphaMode`.
-    pub alpha_mode: AlphaMode,
-    /// glTF `alphaCutoff` (0.5 unless the file says otherwise; 0.5 for [`AlphaMode::Blend`]).
-    pub alpha_cutoff: f32,
-    /// baseColorFactor.a, clamped to [0, 1].
-    pub alpha: f32,
-    /// `KHR_materials_transmission`'s transmissionFactor in [0, 1]: the share of the
-    /// non-metal part that is a thin glass pane ([`Material::pane_weight`]).
-    pub transmission: f32,
-    /// `KHR_materials_ior` (1.5 when absent): the pane's index of refraction.
-    pub ior: f32,
-}
-
-impl Default for Transparency {
-    fn default() -> Self {
-        Transparency {
-            alpha_mode: AlphaMode::Opaque,
-            alpha_cutoff: 0.5,
-            alpha: 1.0,
-            transmission: 0.0,
-            ior: DEFAULT_IOR,
-        }
-    }
-}
-
-/// The index of refraction of a pane without `KHR_materials_ior` (the extension's default).
-pub const DEFAULT_IOR: f32 = 1.5;
-
-/// The reflectance of a thin pane of index `ior` in air at incidence cosine `cos` (either
-/// side): both interfaces and their interreflections, Mitsuba's `thindielectric`,
-/// R = r + (1 − r)² r / (1 − r²) = 2r / (1 + r) with r the unpolarised Fresnel reflectance of
-/// one interface; the pane transmits T = 1 − R straight through (no refraction). The f32
-/// operations are those of `pane_reflectance` in `shaders/common/pane.wgsl` (the propagation
-/// stays bit-identical on the GPU).
-pub fn pane_reflectance(cos: f32, ior: f32) -> f32 {
-    let c = cos.abs().min(1.0);
-    let s2 = (1.0 - c * c) / (ior * ior);
-    if s2 >= 1.0 {
-        return 1.0;
-    }
-    let ct = (1.0 - s2).sqrt();
-    let rs = (c - ior * ct) / (c + ior * ct);
-    let rp = (ior * c - ct) / (ior * c + ct);
-    let r = 0.5 * (rs * rs + rp * rp);
-    2.0 * r / (1.0 + r)
-}
-
-impl Transparency {
-    /// Whether alpha cuts holes into the surface (masks, and blends modelled as masks).
-    pub fn masks(&self) -> bool {
-        self.alpha_mode != AlphaMode::Opaque
-    }
-
-    /// The cutoff in effect: `alpha_cutoff` for masks, ½ for blends.
-    pub fn cutoff(&self) -> f32 {
-        match self.alpha_mode {
-            AlphaMode::Blend => 0.5,
-            _ => self.alpha_cutoff,
-        }
-    }
-}
-
-impl Material {
-    /// Weight of the Lambertian lobe: 1, 0 or `1 − specular` ([`non_metal_weight`](Self::non_metal_weight)),
-    /// less the pane's share of it ([`pane_weight`](Self::pane_weight)).
-    pub fn diffuse_weight(&self) -> f32 {
-        self.non_metal_weight() - self.pane_weight()
-    }
-
-    /// Weight of the non-metal part (Lambert and pane together): 1, 0 or `1 − specular`.
-    pub fn non_metal_weight(&self) -> f32 {
-        match self.kind {
-            MaterialKind::Diffuse => 1.0,
-            MaterialKind::Mirror => 0.0,
-            MaterialKind::Mixed { specular } => 1.0 - specular,
-        }
-    }
-
-    /// Weight of the thin glass pane (`KHR_materials_transmission`, shared conventions):
-    /// transmissionFactor × the non-metal weight (1 − metallic with the metallic thresholds of
-    /// [`MaterialKind`]). A pane reflects R(θ) as a mirror, untinted, and passes T(θ) = 1 − R(θ)
-    /// straight through tinted by the base colour ([`pane_reflectance`]).
-    pub fn pane_weight(&self) -> f32 {
-        self.transparency.transmission * self.non_metal_weight()
-    }
-
-    /// Weight of the metal lobe: 0, 1 or `specular`.
-    pub fn specular_weight(&self) -> f32 {
-        1.0 - self.non_metal_weight()
-    }
-
-    /// Lambertian albedo `diffuse_weight × base_color` (multiply by the base-colour
-    /// texture where there is one).
-    pub fn diffuse_albedo(&self) -> Vec3 {
-        self.base_color * self.diffuse_weight()
-    }
-
-    /// GGX α of the metal lobe (`roughness²`), 0 when it is a perfect mirror
-    /// (roughness ≤ [`MIRROR_MAX_ROUGHNESS`]).
-    pub fn specular_alpha(&self) -> f32 {
-        lobes(1.0, self.roughness).1
-    }
-
-    /// Metal-lobe reflectance `specular_weight × base_color` (multiply by the
-    /// base-colour texture where there is one).
-    pub fn specular_reflectance(&self) -> Vec3 {
-        self.base_color * self.specular_weight()
-    }
-
-    /// Whether the material emits light (non-zero emission factor).
-    pub fn is_emissive(&self) -> bool {
-        self.emission.max_element() > 0.0
-    }
-
-    /// How vlf models the material, in words (`vlf-bake inspect`): its lobes, then what lets
-    /// light through it, e.g. `diffuse, alpha mask (cutoff 0.5, baseColorFactor.a 1)`.
-    pub fn model(&self) -> String {
-        let metal = if self.specular_alpha() > 0.0 {
-            format!("GGX metal (α {:.3})", self.specular_alpha())
-        } else {
-            "mirror".to_string()
-        };
-        let t = &self.transparency;
-        let (d, p, m) = (
-            self.diffuse_weight(),
-            self.pane_weight(),
-            self.specular_weight(),
-        );
-        let mut parts = Vec::new();
-        if d > 0.0 {
-            parts.push((d, "diffuse".to_string()));
-        }
-        if p > 0.0 {
-            parts.push((
-                p,
-                format!(
-                    "thin glass pane (IOR {}, transmission tinted by the base colour)",
-                    t.ior
-                ),
-            ));
-        }
-        if m > 0.0 {
-            parts.push((m, metal));
-        }
-        let mut s = match parts.as_slice() {
-            [] => "black".to_string(),
-            [(_, one)] => one.clone(),
-            _ => parts
-                .iter()
-                .map(|(w, n)| format!("{w:.2} {n}"))
-                .collect::<Vec<_>>()
-                .join(" + "),
-        };
-        if self.is_emissive() {
-            s += ", emissive";
-        }
-        match t.alpha_mode {
-            AlphaMode::Opaque => {}
-            AlphaMode::Mask => {
-                s += &format!(
-                    ", alpha mask (cutoff {}, baseColorFactor.a {})",
-                    t.alpha_cutoff, t.alpha
-                )
-            }
-            AlphaMode::Blend => {
-                s += &format!(
-                    ", alpha blend modelled as a mask at ½ (baseColorFactor.a {})",
-                    t.alpha
-                )
-            }
-        }
-        s
-    }
-}
-
 /// A perspective camera of the default scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Camera {
@@ -473,17 +261,6 @@ impl Camera {
     pub fn up(&self) -> Vec3 {
         self.rotation * Vec3::Y
     }
-}
-
-/// A directional light (`KHR_lights_punctual` "directional").
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Sun {
-    /// Light name (or node name).
-    pub name: Option<String>,
-    /// Unit direction in which the light travels (the node's local −Z in world space).
-    pub direction: Vec3,
-    /// Irradiance at normal incidence, `color × intensity` (radiometric reading).
-    pub irradiance: Vec3,
 }
 
 /// Axis-aligned bounding box.
@@ -623,6 +400,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Directional lights.
     pub suns: Vec<Sun>,
+    /// Point and spot lights.
+    #[serde(default)]
+    pub lights: Vec<PunctualLight>,
     /// Bounds of all triangle vertices.
     pub bounds: Aabb,
     /// World → VLF coordinates.
@@ -631,6 +411,10 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// The file this scene was read from.
     pub source: PathBuf,
+    /// Materials (indices) whose glTF `normalTexture` was ignored: normal maps would need
+    /// irradiance per direction, which the atlas does not store.
+    #[serde(default)]
+    pub ignored_normal_maps: Vec<u32>,
 }
 
 /// Counts describing a [`Scene`] (for `vlf-bake info`, `--json`).
@@ -671,6 +455,64 @@ pub struct SceneSummary {
 }
 
 impl Scene {
+    /// Drops every shading normal: all faces shade flat (`--flat-normals`; the shared
+    /// references other than lamp-room are rendered so).
+    pub fn flatten_normals(&mut self) {
+        for t in &mut self.triangles {
+            t.normals = None;
+        }
+    }
+
+    /// Whether a material is (in part) a thin glass pane ([`Material::pane_weight`]).
+    pub fn has_panes(&self) -> bool {
+        self.materials.iter().any(|m| m.pane_weight() > 0.0)
+    }
+
+    /// Whether some triangle has shading normals.
+    pub fn has_smooth_normals(&self) -> bool {
+        self.triangles.iter().any(|t| t.normals.is_some())
+    }
+
+    /// Whether some triangle has vertex colours.
+    pub fn has_vertex_colors(&self) -> bool {
+        self.triangles.iter().any(|t| t.colors.is_some())
+    }
+
+    /// Whether some material reads a texture with `TEXCOORD_1`.
+    pub fn uses_texcoord1(&self) -> bool {
+        self.materials.iter().any(|m| {
+            [m.base_color_texture, m.emissive_texture]
+                .iter()
+                .flatten()
+                .any(|t| t.texcoord == 1)
+        })
+    }
+
+    /// Per material: how its triangles shade (`vlf-bake inspect`).
+    pub fn material_shading(&self) -> Vec<MaterialShading> {
+        let mut out: Vec<MaterialShading> = self
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MaterialShading {
+                name: m.name.clone(),
+                triangles: 0,
+                smooth_triangles: 0,
+                colored_triangles: 0,
+                base_color_texcoord: m.base_color_texture.map(|t| t.texcoord),
+                emissive_texcoord: m.emissive_texture.map(|t| t.texcoord),
+                normal_map_ignored: self.ignored_normal_maps.contains(&(i as u32)),
+            })
+            .collect();
+        for t in &self.triangles {
+            let m = &mut out[t.material as usize];
+            m.triangles += 1;
+            m.smooth_triangles += usize::from(t.normals.is_some());
+            m.colored_triangles += usize::from(t.colors.is_some());
+        }
+        out
+    }
+
     /// Triangles of face `face`.
     pub fn face_triangles(&self, face: usize) -> &[Triangle] {
         let r = &self.faces[face].triangles;
@@ -682,6 +524,12 @@ impl Scene {
         self.faces
             .iter()
             .any(|f| self.materials[f.material as usize].is_emissive())
+    }
+
+    /// Whether anything lights the scene by itself (the sky aside): an emissive triangle, a
+    /// sun or a point or spot light.
+    pub fn has_lights(&self) -> bool {
+        self.has_emitters() || !self.suns.is_empty() || !self.lights.is_empty()
     }
 
     /// Counts for reports.
@@ -724,6 +572,23 @@ impl Scene {
     }
 }
 
+/// How one material's triangles shade: smooth or flat, vertex colours, texture coordinate sets
+/// (for `vlf-bake inspect`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MaterialShading {
+    pub name: String,
+    /// Triangles using the material, those with shading normals (smooth) and those with
+    /// vertex colours.
+    pub triangles: usize,
+    pub smooth_triangles: usize,
+    pub colored_triangles: usize,
+    /// The texture coordinate set of the base-colour and emissive textures, where there are.
+    pub base_color_texcoord: Option<u32>,
+    pub emissive_texcoord: Option<u32>,
+    /// Whether the material's `normalTexture` was ignored.
+    pub normal_map_ignored: bool,
+}
+
 /// Loads a glTF 2.0 file (`.gltf` with external or embedded buffers, or `.glb`).
 ///
 /// The default scene (scene 0 when the file names none) is traversed with node
@@ -734,10 +599,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 }
 
 /// Checks that something lights the scene: an emissive material used by a
-/// triangle, a sun, or a non-zero sky radiance.
+/// triangle, a sun, a point or spot light, or a non-zero sky radiance.
 pub fn check_lighting(scene: &Scene, sky: Option<Vec3>) -> Result<(), SceneError> {
     let sky_lit = sky.is_some_and(|s| s.is_finite() && s.max_element() > 0.0);
-    if scene.has_emitters() || !scene.suns.is_empty() || sky_lit {
+    if scene.has_lights() || sky_lit {
         Ok(())
     } else {
         Err(SceneError::NothingLit {

@@ -61,6 +61,8 @@ fn auto_preset_with_the_gather_on_the_shared_scenes_matches_the_quality_table() 
         // Sunlit, and capped by the texel budget.
         ("lava-circuit/DepthOfFieldExample.glb", 256, 4, 0.305),
         ("sphere-room/room.glb", 64, 1, 0.5),
+        // Lit by a point and a spot light: half the texel, and half the indirect grid's.
+        ("lamp-room/lamp-room.glb", 64, 2, 0.25),
     ];
     for (rel, n, m, texel) in table {
         let scene = vlf_core::scene::load(&shared(rel)).unwrap();
@@ -70,6 +72,12 @@ fn auto_preset_with_the_gather_on_the_shared_scenes_matches_the_quality_table() 
         assert_eq!(got, (n, m, 0), "{rel}: {:#?}", r.reasons);
         assert_eq!(r.params.directions, 246, "{rel}");
         assert!((g.texel_scale - texel).abs() < 1e-3, "{rel}: {g:?}");
+        let indirect = if rel.starts_with("lamp-room") {
+            0.5
+        } else {
+            1.0
+        };
+        assert_eq!(g.indirect_texel_scale, indirect, "{rel}: {g:?}");
         assert_eq!(
             (g.light_samples, g.direct_rays, g.indirect_rays),
             (64, 16, 256)

@@ -107,6 +107,8 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 // And a pane (the `surfaces` section's pane words).
                 pane: 0.5,
                 ior: 1.45,
+                base_color_texcoord: 0,
+                emissive_texcoord: 0,
             },
             SurfaceMaterial {
                 base_color: [0.3; 3],
@@ -127,6 +129,9 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 ]
             })
             .collect(),
+        uvs1: None,
+        normals: None,
+        colors: None,
         textures: sizes[..textures]
             .iter()
             .map(|&(width, height, wrap)| SurfaceTexture {

@@ -3,7 +3,7 @@
 //! and enclosed sample points, and thread-count independence.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeScene, reference};
+use vlf_core::bake::{BakeScene, Quality, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, Gathered, final_gather};
 use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
@@ -494,4 +494,143 @@ fn the_result_does_not_depend_on_the_thread_count() {
             "{threads} threads differ from 1"
         );
     }
+}
+
+/// A closed, unlit room whose wall of two touching boxes carries a ceiling and stands on a floor
+/// that both run on outside, under a sky (window-room's shape, where the ceiling over the
+/// window wall showed a bright line): whatever the gather stores inside is light leaked across
+/// the wall's foot or head, since nothing lights the room.
+#[test]
+fn no_outside_light_reaches_a_closed_room_across_a_wall_of_touching_boxes() {
+    let mut b = SceneBuilder::new();
+    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
+    let c = Vec3::new;
+    // Floor (facing up) and ceiling (facing down) run from inside (x < 0) to outside.
+    b.quad(
+        [
+            c(-1.0, 0.0, 1.0),
+            c(1.5, 0.0, 1.0),
+            c(1.5, 0.0, -1.0),
+            c(-1.0, 0.0, -1.0),
+        ],
+        white,
+    );
+    b.quad(
+        [
+            c(-1.0, 1.0, -1.0),
+            c(1.5, 1.0, -1.0),
+            c(1.5, 1.0, 1.0),
+            c(-1.0, 1.0, 1.0),
+        ],
+        white,
+    );
+    // The wall between them: two boxes touching at z = 0.
+    b.aabox(c(0.0, 0.0, -1.0), c(0.1, 1.0, 0.0), false, white);
+    b.aabox(c(0.0, 0.0, 0.0), c(0.1, 1.0, 1.0), false, white);
+    // The room's other three walls close it (inside faces only; the scene's edge is x = -1).
+    b.quad(
+        [
+            c(-1.0, 0.0, -1.0),
+            c(-1.0, 1.0, -1.0),
+            c(-1.0, 1.0, 1.0),
+            c(-1.0, 0.0, 1.0),
+        ],
+        white,
+    );
+    b.quad(
+        [
+            c(-1.0, 0.0, -1.0),
+            c(0.0, 0.0, -1.0),
+            c(0.0, 1.0, -1.0),
+            c(-1.0, 1.0, -1.0),
+        ],
+        white,
+    );
+    b.quad(
+        [
+            c(-1.0, 0.0, 1.0),
+            c(-1.0, 1.0, 1.0),
+            c(0.0, 1.0, 1.0),
+            c(0.0, 0.0, 1.0),
+        ],
+        white,
+    );
+    let scene = b.build("closed room beside a lit porch");
+    let xf = scene.to_vlf;
+    // Texels of about 0.075 (the wall is 0.1 thick), the indirect grid twice that.
+    let texel = 0.075 * xf.scale;
+    let mut params = gp(texel, 2.0 * texel, 16, 64);
+    for sampling in [
+        vlf_core::lightfield::Sampling::FIXED,
+        Quality::Auto.gather().sampling,
+    ] {
+        params.sampling = sampling;
+        let g = bake_and_gather(&scene, Vec3::ONE, &params, 0);
+        for (normal, name) in [(Vec3::NEG_Y, "ceiling"), (Vec3::Y, "floor")] {
+            let face = face_with_normal(&scene, normal);
+            let (mut inside, mut outside) = (0.0f32, Vec::new());
+            for (_, centre, e) in texels(&g, face, 0) {
+                let x = xf.inverse(centre).x;
+                if x < 0.0 {
+                    inside = inside.max(e.max_element());
+                } else if x > 0.1 {
+                    outside.push(e.max_element());
+                }
+            }
+            let lit = outside.iter().sum::<f32>() / outside.len() as f32;
+            // Measured: 0.56–0.66 % of the porch's light inside (both samplings), what the
+            // propagated field's texels, as wide as the wall, hold from both of its sides;
+            // 1.9–2.1 % before the indirect grid was read within contacts and the openness
+            // probes took a majority (fixed sampling; the sampled gather failed harder).
+            eprintln!("{sampling:?} {name}: brightest inside {inside:.2e}, outside mean {lit:.3}");
+            assert!(lit > 0.1, "the porch is lit ({lit})");
+            assert!(
+                inside <= 1e-2 * lit,
+                "{name}: {inside:.3e} leaked inside (outside {lit:.3})"
+            );
+        }
+    }
+}
+
+/// Points on a ceiling above a wall built of two touching boxes are closed (the wall's top lies
+/// on the ceiling), however near the boxes' shared face; a tilted probe that crossed it met the
+/// other box's front face and opened them before the majority rule.
+#[test]
+fn points_above_touching_boxes_are_closed() {
+    let mut b = SceneBuilder::new();
+    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
+    let c = Vec3::new;
+    b.quad(
+        [
+            c(-2.0, 1.0, -2.0),
+            c(2.0, 1.0, -2.0),
+            c(2.0, 1.0, 2.0),
+            c(-2.0, 1.0, 2.0),
+        ],
+        white,
+    );
+    b.aabox(c(-1.0, 0.0, -0.1), c(0.0, 1.0, 0.1), false, white);
+    b.aabox(c(0.0, 0.0, -0.1), c(1.0, 1.0, 0.1), false, white);
+    let scene = b.build("wall of two boxes under a ceiling");
+    let ps = vlf_core::pathtrace::PreparedScene::new(&scene);
+    let open = vlf_core::gather::Openness {
+        bvh: &ps.bvh,
+        r_close: 0.05,
+        panes: Vec::new(),
+    };
+    let mut closed = 0;
+    for i in -20..=20 {
+        for k in -4..=4 {
+            let p = c(i as f32 * 0.01, 1.0, k as f32 * 0.02);
+            assert!(
+                !open.is_open(p, Vec3::NEG_Y),
+                "{p} is under the wall's top but open"
+            );
+            closed += 1;
+        }
+    }
+    assert_eq!(closed, 41 * 9);
+    // Beside the wall the ceiling is open.
+    assert!(open.is_open(c(0.0, 1.0, 0.5), Vec3::NEG_Y));
+    assert!(open.is_open(c(1.5, 1.0, 0.0), Vec3::NEG_Y));
 }

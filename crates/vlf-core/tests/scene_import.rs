@@ -563,7 +563,7 @@ fn fog_room_sun() {
 fn lighting_check() {
     let s = load_shared(SPHERES);
     let msg = scene::check_lighting(&s, None).unwrap_err().to_string();
-    assert_contains(&msg, &["no emitters, no sun and no sky", "room.glb"]);
+    assert_contains(&msg, &["no emitters, no lights and no sky", "room.glb"]);
     assert!(scene::check_lighting(&s, Some(Vec3::ZERO)).is_err());
     scene::check_lighting(&s, Some(Vec3::ONE)).unwrap();
     scene::check_lighting(&load_shared(FOG), None).unwrap();
@@ -886,7 +886,7 @@ fn lamp_room_screen_is_a_nearest_mask() {
 }
 
 #[test]
-fn point_light_and_points_primitive_are_warnings() {
+fn point_light_is_imported_and_points_primitive_is_a_warning() {
     let dir = temp_dir("pointlight");
     let mut b = Builder::default();
     let rest = quad_scene(&mut b);
@@ -905,9 +905,12 @@ fn point_light_and_points_primitive_are_warnings() {
     let path = write(&dir, "point.gltf", b.document(Some(""), &rest));
     let s = scene::load(&path).unwrap();
     assert!(s.suns.is_empty());
+    assert_eq!(s.lights.len(), 1);
+    // glTF's defaults: white, at the node's origin.
+    assert_eq!(s.lights[0].intensity, Vec3::splat(5.0));
+    assert_eq!(s.lights[0].position, Vec3::ZERO);
     assert!(
-        s.warnings
-            .contains(&"light 0 (point) is not supported and is ignored".to_string()),
+        !s.warnings.iter().any(|w| w.contains("light")),
         "{:?}",
         s.warnings
     );
@@ -916,6 +919,182 @@ fn point_light_and_points_primitive_are_warnings() {
             .iter()
             .any(|w| w.contains("mesh 1 primitive 0") && w.contains("Points"))
     );
+}
+
+/// The quad scene with `lights` (the extension's array) on the nodes `nodes` (JSON objects
+/// after the mesh node 0; node 0 and those of `nodes` that are no node's child are roots).
+fn lights_scene(test: &str, lights: &str, nodes: &[&str]) -> PathBuf {
+    let dir = temp_dir(test);
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b);
+    let roots: Vec<String> = (0..=nodes.len())
+        .filter(|i| {
+            !nodes
+                .iter()
+                .any(|n| n.contains(&format!(r#""children":[{i}]"#)))
+        })
+        .map(|i| i.to_string())
+        .collect();
+    let rest = rest.replace(
+        r#""nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]"#,
+        &format!(
+            r#""nodes":[{{"mesh":0}},{}],"scenes":[{{"nodes":[{}]}}],
+            "extensions":{{"KHR_lights_punctual":{{"lights":{lights}}}}},
+            "extensionsUsed":["KHR_lights_punctual"]"#,
+            nodes.join(","),
+            roots.join(",")
+        ),
+    );
+    write(&dir, "lights.gltf", b.document(Some(""), &rest))
+}
+
+#[test]
+fn point_and_spot_lights_take_their_nodes_world_transforms() {
+    use vlf_core::scene::PunctualKind;
+    // A spot under a parent translated by (1, 2, 3) and turned −90° about +X ((x, y, z) →
+    // (x, z, −y): local −Z → −Y), itself translated by (0, 0, 1) in the parent (→ (0, 1, 0)).
+    let half = std::f32::consts::FRAC_1_SQRT_2;
+    let path = lights_scene(
+        "spotpoint",
+        r#"[{"type":"spot","name":"cone","color":[1,0.5,0.25],"intensity":8,
+             "spot":{"innerConeAngle":0.2,"outerConeAngle":0.4}},
+            {"type":"point","color":[0.5,1,1],"intensity":2,"range":3.5}]"#,
+        &[
+            &format!(r#"{{"translation":[1,2,3],"rotation":[-{half},0,0,{half}],"children":[2]}}"#),
+            r#"{"translation":[0,0,1],"extensions":{"KHR_lights_punctual":{"light":0}}}"#,
+            r#"{"name":"bulb","translation":[-1,0.5,0],"extensions":{"KHR_lights_punctual":{"light":1}}}"#,
+        ],
+    );
+    let s = scene::load(&path).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert_eq!(s.lights.len(), 2);
+    let spot = &s.lights[0];
+    assert_eq!(spot.name.as_deref(), Some("cone"));
+    assert_eq!(
+        spot.kind,
+        PunctualKind::Spot {
+            inner: 0.2,
+            outer: 0.4
+        }
+    );
+    assert!(
+        (spot.position - Vec3::new(1.0, 3.0, 3.0)).length() < 1e-5,
+        "{}",
+        spot.position
+    );
+    assert!(
+        (spot.direction - Vec3::NEG_Y).length() < 1e-5,
+        "{}",
+        spot.direction
+    );
+    assert_eq!(spot.intensity, Vec3::new(8.0, 4.0, 2.0));
+    assert_eq!(spot.range, None);
+    let point = &s.lights[1];
+    assert_eq!(point.kind, PunctualKind::Point);
+    assert_eq!(
+        point.name.as_deref(),
+        Some("bulb"),
+        "the node's name when the light has none"
+    );
+    assert_eq!(point.position, Vec3::new(-1.0, 0.5, 0.0));
+    assert_eq!(point.intensity, Vec3::new(1.0, 2.0, 2.0));
+    assert_eq!(point.range, Some(3.5));
+    // The falloff: full inside the inner cone, none outside the outer, the extension's
+    // smooth curve between; the range window (1 − (d/r)⁴) at d = r/2 and beyond r.
+    assert_eq!(spot.attenuation(0.1f32.cos(), 1.0), 1.0);
+    assert_eq!(spot.attenuation(0.41f32.cos(), 1.0), 0.0);
+    let mid = 0.3f32.cos();
+    let t = (mid - 0.4f32.cos()) / (0.2f32.cos() - 0.4f32.cos());
+    assert!((spot.attenuation(mid, 1.0) - t * t).abs() < 1e-4);
+    assert!((point.attenuation(1.0, 1.75) - (1.0 - 0.0625)).abs() < 1e-6);
+    assert_eq!(point.attenuation(1.0, 3.6), 0.0);
+    scene::check_lighting(&s, None).expect("lit by its lamps alone");
+}
+
+#[test]
+fn bad_punctual_lights_are_errors_naming_the_light() {
+    let cases = [
+        (r#"{"type":"point","intensity":-1}"#, "intensity -1"),
+        (
+            r#"{"type":"point","color":[1,-0.5,1]}"#,
+            "color [1.0, -0.5, 1.0]",
+        ),
+        (r#"{"type":"point","color":[1,1,1e39]}"#, "must be finite"),
+        (
+            r#"{"type":"point","intensity":1e30,"color":[1e30,1,1]}"#,
+            "overflows",
+        ),
+        (r#"{"type":"point","range":0}"#, "range 0"),
+        (r#"{"type":"point","range":-2}"#, "range -2"),
+        (r#"{"type":"spot"}"#, "without its \"spot\""),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":0.5,"outerConeAngle":0.3}}"#,
+            "innerConeAngle 0.5, outerConeAngle 0.3",
+        ),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":0.3,"outerConeAngle":0.3}}"#,
+            "0 ≤ inner < outer ≤ π/2",
+        ),
+        (
+            r#"{"type":"spot","spot":{"innerConeAngle":-0.1,"outerConeAngle":0.3}}"#,
+            "innerConeAngle -0.1",
+        ),
+        (
+            r#"{"type":"spot","spot":{"outerConeAngle":1.6}}"#,
+            "outerConeAngle 1.6",
+        ),
+    ];
+    for (i, (light, want)) in cases.iter().enumerate() {
+        let light = light.replace(r#"{"type""#, r#"{"name":"lamp","type""#);
+        let path = lights_scene(
+            &format!("badlight{i}"),
+            &format!("[{light}]"),
+            &[r#"{"extensions":{"KHR_lights_punctual":{"light":0}}}"#],
+        );
+        let msg = expect_err(&path);
+        assert_contains(&msg, &["light 0 (\"lamp\")", want]);
+    }
+    // A spot whose node squashes its direction to nothing.
+    let path = lights_scene(
+        "flatspot",
+        r#"[{"type":"spot","spot":{}}]"#,
+        &[r#"{"scale":[1,1,0],"extensions":{"KHR_lights_punctual":{"light":0}}}"#],
+    );
+    assert_contains(&expect_err(&path), &["node 1", "has no direction"]);
+}
+
+#[test]
+fn lamp_room_lights_import_without_warnings() {
+    use vlf_core::scene::PunctualKind;
+    let s = load_shared("lamp-room/lamp-room.glb");
+    assert!(s.suns.is_empty());
+    assert_eq!(s.lights.len(), 2);
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("light")),
+        "{:?}",
+        s.warnings
+    );
+    // The shared README: a point light of colour (1, 0.9, 0.75), intensity 6, and a spot of
+    // colour (0.6, 0.8, 1), intensity 30, with a hard 0.35 rad cone.
+    let point = s
+        .lights
+        .iter()
+        .find(|l| l.kind == PunctualKind::Point)
+        .unwrap();
+    assert!((point.intensity - Vec3::new(6.0, 5.4, 4.5)).length() < 1e-5);
+    let spot = s
+        .lights
+        .iter()
+        .find(|l| l.kind != PunctualKind::Point)
+        .unwrap();
+    assert!((spot.intensity - Vec3::new(18.0, 24.0, 30.0)).length() < 1e-4);
+    let PunctualKind::Spot { inner, outer } = spot.kind else {
+        unreachable!()
+    };
+    assert!((outer - 0.35).abs() < 1e-6 && (outer - inner - 0.005).abs() < 1e-6);
+    assert!(spot.direction.y < 0.0, "the spot points down");
+    assert!(s.bounds.min.cmple(point.position).all() && point.position.cmple(s.bounds.max).all());
+    scene::check_lighting(&s, None).expect("lamp-room is lit by its lamps");
 }
 
 // ----- fixtures: bad input ---------------------------------------------------------------
@@ -1214,5 +1393,272 @@ fn image_without_source() {
     assert_contains(
         &expect_err(&path),
         &["image 0", "neither a uri nor a bufferView"],
+    );
+}
+
+// ----- shading normals, vertex colours, TEXCOORD_1 (issue 25) ---------------------------
+
+impl Builder {
+    /// An accessor over `bytes` of `count` elements of glTF `kind` ("VEC3", …) and component
+    /// type `component`, `normalized` as given.
+    fn raw(
+        &mut self,
+        bytes: &[u8],
+        component: u32,
+        count: usize,
+        kind: &str,
+        normalized: bool,
+    ) -> usize {
+        let v = self.view(bytes);
+        self.accessors.push(format!(
+            r#"{{"bufferView":{v},"componentType":{component},"count":{count},"type":"{kind}","normalized":{normalized}}}"#
+        ));
+        self.accessors.len() - 1
+    }
+
+    /// A float accessor of VEC`N`.
+    fn floats<const N: usize>(&mut self, data: &[[f32; N]]) -> usize {
+        let bytes: Vec<u8> = data
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        self.raw(&bytes, 5126, data.len(), &format!("VEC{N}"), false)
+    }
+}
+
+/// One triangle in the z = 0 plane (front +Z) with `attributes` (JSON members after POSITION),
+/// under node `node` (JSON members after "mesh"); material 0 is diffuse white, with `material`
+/// members added.
+fn attribute_triangle(b: &mut Builder, attributes: &str, node: &str, material: &str) -> String {
+    let p = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    format!(
+        r#""meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p}{attributes}}},"material":0}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"metallicFactor":0{material}}}}}],
+        "nodes":[{{"mesh":0{node}}}],"scenes":[{{"nodes":[0]}}]"#
+    )
+}
+
+fn load_triangle(test: &str, b: Builder, rest: &str) -> Scene {
+    let dir = temp_dir(test);
+    let path = write(&dir, "t.gltf", b.document(Some(""), rest));
+    scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn normals_are_shading_normals_in_world_space() {
+    let tilt = |x: f32, y: f32| Vec3::new(x, y, 1.0).normalize().to_array();
+    // Tilted corner normals: kept, unit, world space (the node scales x by 2: normals by
+    // the inverse transpose, x by 1/2).
+    let mut b = Builder::default();
+    let n = b.floats(&[tilt(-0.5, -0.5), tilt(0.5, 0.0), tilt(0.0, 0.5)]);
+    let rest = attribute_triangle(
+        &mut b,
+        &format!(r#","NORMAL":{n}"#),
+        r#","scale":[2,1,1]"#,
+        "",
+    );
+    let s = load_triangle("normals", b, &rest);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let t = &s.triangles[0];
+    let ns = t.normals.expect("tilted normals are kept");
+    let want = Vec3::new(0.25, 0.0, 1.0).normalize();
+    assert!((ns[1] - want).length() < 1e-6, "{} vs {want}", ns[1]);
+    for n in ns {
+        assert!((n.length() - 1.0).abs() < 1e-6 && n.dot(t.normal()) > 0.0);
+    }
+    // The interpolated normal at the centroid.
+    let c = t.shading_normal_at(1.0 / 3.0, 1.0 / 3.0).unwrap();
+    let sum = (ns[0] + ns[1] + ns[2]).normalize();
+    assert!((c - sum).length() < 1e-6);
+    assert!(s.has_smooth_normals());
+
+    // Normals equal to the geometric normal: a flat triangle, as without them.
+    let mut b = Builder::default();
+    let n = b.floats(&[[0.0, 0.0, 1.0]; 3]);
+    let rest = attribute_triangle(&mut b, &format!(r#","NORMAL":{n}"#), "", "");
+    let s = load_triangle("flat-normals", b, &rest);
+    assert_eq!(s.triangles[0].normals, None);
+    assert!(!s.has_smooth_normals());
+
+    // A mirroring node: corners swapped with their normals, which stay on the front side.
+    let mut b = Builder::default();
+    let n = b.floats(&[tilt(-0.5, -0.5), tilt(0.5, 0.0), tilt(0.0, 0.5)]);
+    let rest = attribute_triangle(
+        &mut b,
+        &format!(r#","NORMAL":{n}"#),
+        r#","scale":[-1,1,1]"#,
+        "",
+    );
+    let mut s = load_triangle("mirrored-normals", b, &rest);
+    let t = &s.triangles[0];
+    let ns = t.normals.unwrap();
+    assert_eq!(t.p[1], Vec3::new(0.0, 1.0, 0.0), "corners 1 and 2 swapped");
+    let want = Vec3::new(0.0, 0.5, 1.0).normalize();
+    assert!((ns[1] - want).length() < 1e-6, "{} vs {want}", ns[1]);
+    assert!(ns.iter().all(|n| n.dot(t.normal()) > 0.0));
+    s.flatten_normals();
+    assert!(!s.has_smooth_normals());
+}
+
+#[test]
+fn malformed_normals_are_repaired_or_ignored_with_a_warning() {
+    let tilt = Vec3::new(0.3, 0.0, 1.0).normalize().to_array();
+    // Non-finite, zero and back-facing normals: replaced by the geometric normal.
+    let mut b = Builder::default();
+    let n = b.floats(&[[f32::NAN, 0.0, 1.0], [0.0, 0.0, 0.0], tilt]);
+    let rest = attribute_triangle(&mut b, &format!(r#","NORMAL":{n}"#), "", "");
+    let s = load_triangle("bad-normals", b, &rest);
+    let ns = s.triangles[0]
+        .normals
+        .expect("the tilted corner keeps it smooth");
+    assert_eq!(ns[0], Vec3::Z);
+    assert_eq!(ns[1], Vec3::Z);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("2 NORMALs are not finite, zero or facing away")),
+        "{:?}",
+        s.warnings
+    );
+    let mut b = Builder::default();
+    let n = b.floats(&[[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]);
+    let rest = attribute_triangle(&mut b, &format!(r#","NORMAL":{n}"#), "", "");
+    let s = load_triangle("back-normals", b, &rest);
+    assert_eq!(s.triangles[0].normals, None, "repaired to flat");
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("1 NORMAL is not finite"))
+    );
+    // Too few: ignored (flat) with a warning.
+    let mut b = Builder::default();
+    let n = b.floats(&[tilt, tilt]);
+    let rest = attribute_triangle(&mut b, &format!(r#","NORMAL":{n}"#), "", "");
+    let s = load_triangle("short-normals", b, &rest);
+    assert_eq!(s.triangles[0].normals, None);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("NORMAL has 2 elements for 3 vertices; normals ignored")),
+        "{:?}",
+        s.warnings
+    );
+    // Not VEC3: an error naming the primitive and the file.
+    let dir = temp_dir("vec2-normals");
+    let mut b = Builder::default();
+    let n = b.floats(&[[0.0, 1.0]; 3]);
+    let rest = attribute_triangle(&mut b, &format!(r#","NORMAL":{n}"#), "", "");
+    let path = write(&dir, "t.gltf", b.document(Some(""), &rest));
+    assert_contains(
+        &expect_err(&path),
+        &["mesh 0 primitive 0 NORMAL", "must be of type VEC3"],
+    );
+}
+
+#[test]
+fn vertex_colours_are_read_clamped_and_checked() {
+    // VEC4 of normalised unsigned bytes (alpha not read).
+    let mut b = Builder::default();
+    let c = b.raw(
+        &[255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 51, 0],
+        5121,
+        3,
+        "VEC4",
+        true,
+    );
+    let rest = attribute_triangle(&mut b, &format!(r#","COLOR_0":{c}"#), "", "");
+    let s = load_triangle("colours-u8", b, &rest);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let cs = s.triangles[0].colors.unwrap();
+    assert_eq!(cs, [Vec3::X, Vec3::Y, Vec3::new(0.0, 0.0, 0.2)]);
+    assert!((s.triangles[0].color_at(0.5, 0.0) - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    assert!(s.has_vertex_colors());
+    // Float VEC3: non-finite components read 1, values outside [0, 1] clamped, with warnings.
+    let mut b = Builder::default();
+    let c = b.floats(&[[f32::INFINITY, 0.5, 0.5], [2.0, -1.0, 0.5], [0.5, 0.5, 0.5]]);
+    let rest = attribute_triangle(&mut b, &format!(r#","COLOR_0":{c}"#), "", "");
+    let s = load_triangle("colours-float", b, &rest);
+    let cs = s.triangles[0].colors.unwrap();
+    assert_eq!(cs[0], Vec3::new(1.0, 0.5, 0.5));
+    assert_eq!(cs[1], Vec3::new(1.0, 0.0, 0.5));
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("1 non-finite COLOR_0 components replaced by 1"))
+    );
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("2 COLOR_0 components outside [0, 1] clamped"))
+    );
+    // All white: no colours at all. Too few: ignored with a warning.
+    let mut b = Builder::default();
+    let c = b.floats(&[[1.0; 3]; 3]);
+    let rest = attribute_triangle(&mut b, &format!(r#","COLOR_0":{c}"#), "", "");
+    assert_eq!(
+        load_triangle("colours-white", b, &rest).triangles[0].colors,
+        None
+    );
+    let mut b = Builder::default();
+    let c = b.floats(&[[0.5; 3]; 2]);
+    let rest = attribute_triangle(&mut b, &format!(r#","COLOR_0":{c}"#), "", "");
+    let s = load_triangle("colours-short", b, &rest);
+    assert_eq!(s.triangles[0].colors, None);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("COLOR_0 has 2 elements for 3 vertices"))
+    );
+    // Unnormalised bytes or VEC2: an error.
+    for (test, bytes, component, kind, normalized) in [
+        ("colours-raw-u8", vec![1u8; 12], 5121, "VEC4", false),
+        ("colours-vec2", vec![0u8; 24], 5126, "VEC2", false),
+    ] {
+        let dir = temp_dir(test);
+        let mut b = Builder::default();
+        let c = b.raw(&bytes, component, 3, kind, normalized);
+        let rest = attribute_triangle(&mut b, &format!(r#","COLOR_0":{c}"#), "", "");
+        let path = write(&dir, "t.gltf", b.document(Some(""), &rest));
+        assert_contains(&expect_err(&path), &["COLOR_0", "must be VEC3 or VEC4"]);
+    }
+}
+
+#[test]
+fn texture_slots_read_the_texcoord_set_they_name() {
+    let dir = temp_dir("texcoord1");
+    let png = png_rgb(1, 1, &[[255, 255, 255]]);
+    let mut b = Builder::default();
+    let t0 = b.uvs(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    let t1 = b.uvs(&[[0.5, 0.5], [0.25, 0.5], [0.5, 0.25]]);
+    let p = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let rest = format!(
+        r#""meshes":[{{"primitives":[{{"attributes":{{"POSITION":{p},"TEXCOORD_0":{t0},"TEXCOORD_1":{t1}}},"material":0}}]}}],
+        "materials":[{{"pbrMetallicRoughness":{{"metallicFactor":0,"baseColorTexture":{{"index":0,"texCoord":1}}}}}}],
+        "textures":[{{"source":0}}],"images":[{{"uri":"data:image/png;base64,{}"}}],
+        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}]"#,
+        base64(&png)
+    );
+    let path = write(&dir, "t.gltf", b.document(Some(""), &rest));
+    let s = scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.materials[0];
+    assert_eq!(m.base_color_texture.unwrap().texcoord, 1);
+    assert!(s.uses_texcoord1());
+    let t = &s.triangles[0];
+    assert_eq!(t.uv1.unwrap()[1], Vec2::new(0.25, 0.5));
+    assert_eq!(t.uv_at(1, 1.0, 0.0), Vec2::new(0.25, 0.5));
+    assert_eq!(t.uv_at(0, 1.0, 0.0), Vec2::new(1.0, 0.0));
+    // A set above 1: read as set 0, with a warning.
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace(r#""texCoord":1"#, r#""texCoord":2"#);
+    let path = write(&dir, "t2.gltf", text);
+    let s = scene::load(&path).unwrap();
+    assert_eq!(s.materials[0].base_color_texture.unwrap().texcoord, 0);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("uses TEXCOORD_2")),
+        "{:?}",
+        s.warnings
     );
 }

@@ -135,9 +135,9 @@ fn a_half_cut_screen_passes_half_the_light_in_the_path_tracer() {
     assert!((ratio - 0.5).abs() < 0.01, "ratio {ratio}");
 }
 
-/// The thin pane's T(θ) = 1 − R(θ) of the shared conventions (Mitsuba's thindielectric: R = r
-/// + (1 − r)² r / (1 − r²), r the Fresnel reflectance of one air–glass interface, IOR 1.5):
-/// 0.92 at normal incidence, 0 at grazing.
+/// The thin pane's T(θ) = 1 − R(θ) of the shared conventions (Mitsuba's thindielectric:
+/// R = r + (1 − r)² r / (1 − r²), r the Fresnel reflectance of one air–glass interface, IOR
+/// 1.5): 0.92 at normal incidence, 0 at grazing.
 #[test]
 fn pane_transmittance_follows_the_thin_dielectric() {
     let t = |c: f32| 1.0 - vlf_core::scene::pane_reflectance(c, 1.5);

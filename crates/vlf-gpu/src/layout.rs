@@ -192,12 +192,14 @@ pub struct RtSceneInfo {
     pub mat_base: u32,
     pub emitter_base: u32,
     pub emitter_count: u32,
-    pub sun_base: u32,
-    pub sun_count: u32,
+    /// Delta lights (suns, point and spot lights): four entries each.
+    pub delta_base: u32,
+    pub delta_count: u32,
     pub tex_base: u32,
-    /// Probability of sampling an emitter rather than a sun.
+    /// Probability of sampling an emitter rather than a delta light.
     pub p_emitters: f32,
-    pub _pad: u32,
+    /// Where the per-triangle attributes (shading normals, vertex colours, `TEXCOORD_1`) start.
+    pub attr_base: u32,
 }
 
 /// The icosahedron tables of the direction lookup (`shaders/common/directions.wgsl`, group 2
@@ -268,7 +270,8 @@ pub struct GatherGlobals {
     pub side: u32,
     /// Where the field buffer's contact bits start (vec4 units; 16 texels per entry).
     pub field_contacts: u32,
-    pub _pad1: u32,
+    /// Where the grid buffer's chart normals start (three entries per smooth chart triangle).
+    pub chart_normals: u32,
 }
 
 /// Which queue and ray-buffer slice a ray-engine or path-tracer dispatch works on
@@ -423,7 +426,8 @@ pub fn registry() -> Vec<SharedStruct> {
             tile_count,
         }),
         shared!(RtSceneInfo in "common/rt_scene.wgsl" {
-            mat_base, emitter_base, emitter_count, sun_base, sun_count, tex_base, p_emitters, _pad,
+            mat_base, emitter_base, emitter_count, delta_base, delta_count, tex_base, p_emitters,
+            attr_base,
         }),
         shared!(DirTables in "common/directions.wgsl" {
             face_normals, edge0, edge1, edge2, octant_faces, k, l, _pad0, _pad1,
@@ -432,7 +436,7 @@ pub fn registry() -> Vec<SharedStruct> {
             sky, xf_center, xf_scale, texel_base, texel_count, stream, seed, points, points_side,
             r_close, has_tiles, light_samples, light_side, cosine_rays, cosine_side, grid_texels,
             chart_start, chart_tris, field_irradiance, scratch_stride, strata_at, sentinel, k0, k1,
-            side, field_contacts, _pad1,
+            side, field_contacts, chart_normals,
         }),
         shared!(RtPath in "raytrace_path.wgsl" {
             throughput, slot, rng_state, rng_inc, depth, pdf,

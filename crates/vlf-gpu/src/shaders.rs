@@ -44,6 +44,7 @@ pub static RENDER_DIRECTION_IDS: Shader = shader!("render_direction_ids.wgsl");
 pub static RENDER_BARYCENTRICS: Shader = shader!("render_barycentrics.wgsl");
 pub static RENDER_FACE_ID: Shader = shader!("render_face_id.wgsl");
 pub static RENDER_POSITION: Shader = shader!("render_position.wgsl");
+pub static RENDER_ATTRIBUTES: Shader = shader!("render_attributes.wgsl");
 pub static RENDER_FINAL_RADIANCE: Shader = shader!("render_final_radiance.wgsl");
 pub static RENDER_DISPLAY: Shader = shader!("render_display.wgsl");
 pub static RAYTRACE_ENGINE: Shader = shader!("raytrace_engine.wgsl");
@@ -88,6 +89,7 @@ pub static COMMON_DIRECTIONS: Shader = shader!("common/directions.wgsl");
 pub static COMMON_MIRROR_TILES: Shader = shader!("common/mirror_tiles.wgsl");
 /// What a final-gather ray reads at its hit: the field's irradiance, stopping at contacts.
 pub static COMMON_GATHER_FIELD: Shader = shader!("common/gather_field.wgsl");
+pub static COMMON_SURFACE_ATTRIBUTES: Shader = shader!("common/surface_attributes.wgsl");
 
 /// Every shader of the project, the importable `common/` files included. The test
 /// `registry_matches_folder` keeps this list complete.
@@ -101,6 +103,7 @@ pub static ALL: &[&Shader] = &[
     &RENDER_BARYCENTRICS,
     &RENDER_FACE_ID,
     &RENDER_POSITION,
+    &RENDER_ATTRIBUTES,
     &RENDER_FINAL_RADIANCE,
     &RENDER_DISPLAY,
     &RAYTRACE_ENGINE,
@@ -126,6 +129,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_DIRECTIONS,
     &COMMON_MIRROR_TILES,
     &COMMON_GATHER_FIELD,
+    &COMMON_SURFACE_ATTRIBUTES,
 ];
 
 /// What goes wrong when resolving or validating a shader. `file` is the shader being resolved

@@ -2,6 +2,7 @@
 
 use super::scan::same_params;
 use super::*;
+use std::fs;
 
 fn tmpdir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("vlf-batch-{tag}-{}", std::process::id()));

@@ -91,12 +91,22 @@ fn gather_items(
         direct_texels: at(gp.texel_scale),
         faces: scene.faces.len() as u64,
         triangles: scene.triangles.len() as u64,
+        smooth_triangles: scene
+            .triangles
+            .iter()
+            .filter(|t| t.normals.is_some())
+            .count() as u64,
+        attributed_triangles: scene
+            .triangles
+            .iter()
+            .filter(|t| t.normals.is_some() || t.colors.is_some() || t.uv1.is_some())
+            .count() as u64,
         field_texels: prep.texel_count() as u64,
         tile_values,
         texture_texels: scene.textures.iter().map(|t| t.pixels.len() as u64).sum(),
         materials: scene.materials.len() as u64,
         has_emitters: scene.has_emitters(),
-        suns: !scene.suns.is_empty(),
+        delta_lights: !scene.suns.is_empty() || !scene.lights.is_empty(),
     };
     let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
     let plan = GatherPlan::new(&counts, gp, &GatherOptions::default(), limit, 256);

@@ -229,12 +229,31 @@ fn choose_gather(
     reasons: &mut Vec<String>,
 ) -> GatherParams {
     let mut g = quality.gather();
-    if !scene.suns.is_empty() {
-        // Sun shadows have no penumbra: their edges are as sharp as the stored atlas.
+    if !scene.suns.is_empty() || !scene.lights.is_empty() {
+        // Shadows of suns, point and spot lights have no penumbra (nor has a hard spot's
+        // cone): their edges are as sharp as the stored atlas.
         g.texel_scale *= 0.5;
+        let what = if scene.suns.is_empty() {
+            "the point and spot lights' sharp shadows"
+        } else {
+            "the sun's sharp shadows"
+        };
         reasons.push(format!(
-            "gather: texels of {} ray spacings for the sun's sharp shadows (half the preset's)",
+            "gather: texels of {} ray spacings for {what} (half the preset's)",
             g.texel_scale
+        ));
+    }
+    if !scene.lights.is_empty() {
+        // A lamp's hard shadow leaves the contact regions next to what it lights (under a
+        // sphere on the floor) lit by indirect light alone, which darkens towards the contact
+        // at the scale of the gap: the indirect grid at one ray spacing smeared lamp-room's
+        // contact shadow over a tenth of a metre (relMSE against the path tracer 1.56e-3; at
+        // half a spacing 0.66e-3, in 1.7× the bake time; docs/LIGHTS.md).
+        g.indirect_texel_scale *= 0.5;
+        reasons.push(format!(
+            "gather: indirect grid of {} ray spacings for the contact shadows next to the point \
+             and spot lights' hard shadows (half the preset's)",
+            g.indirect_texel_scale
         ));
     }
     let cell = 2.0 / n as f64;

@@ -8,6 +8,7 @@
 pub mod auto;
 pub mod glossy;
 pub mod prep;
+pub mod punctual;
 pub mod quality;
 pub mod reference;
 

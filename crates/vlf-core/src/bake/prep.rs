@@ -6,10 +6,12 @@
 //! Texels are clipped exactly against the face's triangles: `texel_area` is the covered area
 //! (0 for texels outside the polygon), so energy sums (Σ B·area) are exact for the polygon.
 //! Albedo and emission are the material's factors; where the material has a base-colour or
-//! emissive texture they are multiplied by the texture's mean over the texel's covered part
-//! ([`TEXTURE_SAMPLES`]), not by its value at one point: a texel then absorbs and emits what
-//! its part of the surface does on average, which is what energy conservation needs when the
-//! texture is finer than the atlas.
+//! emissive texture (read with the texture coordinate set its slot names) or the face has
+//! vertex colours (which multiply the base colour), they are multiplied by the mean of the
+//! texture (× vertex colour) over the texel's covered part ([`TEXTURE_SAMPLES`]), not by its
+//! value at one point: a texel then absorbs and emits what its part of the surface does on
+//! average, which is what energy conservation needs when the texture or the colours vary
+//! faster than the atlas.
 
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
@@ -20,6 +22,7 @@ use crate::lightfield::{
     AlphaMasks, BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED,
     ParamsError,
 };
+use crate::pathtrace::lights::DeltaLight;
 use crate::scene::{MaterialKind, Scene, Texture};
 
 /// A face's thin glass pane as the propagation reads it (32 bytes; mirrors WGSL `PaneFace` of
@@ -98,6 +101,10 @@ pub struct BakeScene {
     /// The alpha masks of `triangles` (empty when no material masks): the propagation's rays
     /// pass through a triangle where it [`cuts`](AlphaMasks::cuts).
     pub masks: AlphaMasks,
+    /// Point and spot lights in VLF (positions and ranges mapped, intensities scaled by the
+    /// VLF scale², so irradiance is unchanged): their direct light is injected into the
+    /// propagation's first iteration ([`super::punctual`]).
+    pub lights: Vec<DeltaLight>,
     pub texel_size: f32,
     pub warnings: Vec<String>,
 }
@@ -207,18 +214,18 @@ impl BakeScene {
             let mat = &scene.materials[f.material as usize];
             let w = bf.width as usize;
             let h = bf.height as usize;
-            // Per texel: covered area, area-weighted centroid (chart coords), and the uv at
-            // the centroid of the largest covered piece.
+            // Per texel: covered area, area-weighted centroid (chart coords), and the triangle
+            // (index in the face) and chart point of the centroid of its largest covered piece.
             let mut area = vec![0f64; w * h];
             let mut centroid = vec![Vec2::ZERO; w * h];
-            let mut best = vec![(0f64, Vec2::ZERO, (0u32, [0f32; 3])); w * h];
+            let mut best = vec![(0f64, 0usize, Vec2::ZERO); w * h];
             let basis = crate::scene::PlaneBasis {
                 origin: Vec3::from(bf.origin),
                 u: Vec3::from(bf.u),
                 v: Vec3::from(bf.v),
             };
-            for (k, tri) in scene.face_triangles(fi).iter().enumerate() {
-                let ti = f.triangles.start + k as u32;
+            let face_tris = scene.face_triangles(fi);
+            for (k, tri) in face_tris.iter().enumerate() {
                 let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
                 let lo = q[0].min(q[1]).min(q[2]);
                 let hi = q[0].max(q[1]).max(q[2]);
@@ -237,32 +244,34 @@ impl BakeScene {
                         area[i] += a;
                         centroid[i] += c * a as f32;
                         if a > best[i].0 {
-                            // uv at c by barycentrics in the chart triangle.
-                            let w = weights_at(&q, c);
-                            best[i] = (a, uv_at(&tri.uv, w), (ti, w));
+                            best[i] = (a, k, c);
                         }
                     }
                 }
             }
             let base_tex = mat
                 .base_color_texture
-                .map(|t| &scene.textures[t.index as usize]);
+                .map(|t| (&scene.textures[t.index as usize], t.texcoord));
             let emit_tex = mat
                 .emissive_texture
-                .map(|t| &scene.textures[t.index as usize]);
+                .map(|t| (&scene.textures[t.index as usize], t.texcoord));
             let face_masks = (!masks.is_empty()).then_some(&masks);
             let masked = face_masks.is_some_and(|m| m.is_masked(f.triangles.start));
-            let means = (base_tex.is_some() || emit_tex.is_some() || masked).then(|| {
-                texture_means(
-                    scene,
-                    fi,
-                    &basis,
-                    texel_size,
-                    (w, h),
-                    [base_tex, emit_tex],
-                    face_masks.filter(|_| masked),
-                )
-            });
+            // Vertex colours multiply the base colour (never the emission).
+            let colored = face_tris.iter().any(|t| t.colors.is_some());
+            let means =
+                (base_tex.is_some() || emit_tex.is_some() || colored || masked).then(|| {
+                    texture_means(
+                        scene,
+                        fi,
+                        &basis,
+                        texel_size,
+                        (w, h),
+                        [base_tex, emit_tex],
+                        colored,
+                        face_masks.filter(|_| masked),
+                    )
+                });
             let mut spec_tex = (Vec3::ZERO, 0f64);
             for i in 0..w * h {
                 if area[i] <= 0.0 {
@@ -270,12 +279,17 @@ impl BakeScene {
                 }
                 let c = centroid[i] / area[i] as f32 * texel_size;
                 let p = basis.from_chart(c);
-                // The textures' means over the covered part (at the centroid of the largest
-                // covered piece for a sliver no sample point fell on).
-                let uv = best[i].1;
-                let mean = |k: usize, tex: Option<&Texture>| match &means {
+                // The means over the covered part the alpha mask leaves (at the centroid of the
+                // largest covered piece for a sliver no sample point fell on).
+                let (_, k, at) = best[i];
+                let point = || {
+                    let tri = &face_tris[k];
+                    let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
+                    (tri, barycentrics(&q, at))
+                };
+                let mean = |k: usize, fallback: &dyn Fn() -> Vec3| match &means {
                     Some(m) if m.open[i] > 0.0 => m.sum[k][i] / m.open[i],
-                    _ => tex.map_or(Vec3::ONE, |t| t.bilinear(uv).truncate()),
+                    _ => fallback(),
                 };
                 // The share of the covered part the alpha mask leaves (1 without a mask): a
                 // sliver no sample point fell on is kept or cut whole by its best piece.
@@ -283,23 +297,34 @@ impl BakeScene {
                     _ if !masked => 1.0,
                     Some(m) if m.weight[i] > 0.0 => m.open[i] / m.weight[i],
                     _ => {
-                        let (tri, w) = best[i].2;
-                        if masks.cuts(tri, w) { 0.0 } else { 1.0 }
+                        let (b1, b2) = point().1;
+                        let tri = f.triangles.start + k as u32;
+                        if masks.cuts(tri, [1.0 - b1 - b2, b1, b2]) {
+                            0.0
+                        } else {
+                            1.0
+                        }
                     }
                 };
                 if coverage <= 0.0 {
                     continue;
                 }
                 let mut base = baked[f.material as usize].diffuse;
-                if base_tex.is_some() {
-                    let t = mean(0, base_tex);
+                if base_tex.is_some() || colored {
+                    let t = mean(0, &|| {
+                        let (tri, (b1, b2)) = point();
+                        surface_value(tri, base_tex, b1, b2) * tri.color_at(b1, b2)
+                    });
                     base *= t;
                     spec_tex.0 += t * (area[i] as f32 * coverage);
                     spec_tex.1 += area[i] * f64::from(coverage);
                 }
                 let mut emit = mat.emission;
                 if emit_tex.is_some() {
-                    emit *= mean(1, emit_tex);
+                    emit *= mean(1, &|| {
+                        let (tri, (b1, b2)) = point();
+                        surface_value(tri, emit_tex, b1, b2)
+                    });
                 }
                 let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32 * coverage;
                 for side in 0..2 {
@@ -354,6 +379,12 @@ impl BakeScene {
             materials: baked,
             suns,
             masks,
+            lights: scene
+                .lights
+                .iter()
+                .map(|l| DeltaLight::punctual(l, &xf))
+                .filter(|l| l.intensity.max_element() > 0.0 && l.intensity.is_finite())
+                .collect(),
             texel_size,
             warnings,
         })
@@ -406,27 +437,40 @@ impl BakeScene {
 /// texel side (from the triangle's uv gradient), between these bounds.
 pub const TEXTURE_SAMPLES: std::ops::RangeInclusive<u32> = 4..=8;
 
-/// Per texel of one chart side: the sums of the base-colour and emissive texture values over
-/// the sample points that fall on the face where its alpha mask leaves a surface, each
-/// weighted by the area it stands for, the sum of those weights (`open`), and the sum of the
-/// weights of all points on the face (`weight`).
+/// Per texel of one chart side: the sums of the base-colour (times the vertex colour) and
+/// emissive texture values over the sample points that fall on the face where its alpha mask
+/// leaves a surface, each weighted by the area it stands for, the sum of those weights
+/// (`open`), and the sum of the weights of all points on the face (`weight`).
 struct TextureMeans {
     sum: [Vec<Vec3>; 2],
     open: Vec<f32>,
     weight: Vec<f32>,
 }
 
-/// The texture means of face `fi`'s texels ([`TEXTURE_SAMPLES`]): every texel a triangle's
-/// bounding box touches gets an S × S grid of points (S from that triangle's uv gradient);
-/// those inside the triangle sample the textures at their interpolated uv, weighted by the
-/// area 1/S² they stand for. A missing texture reads 1.
+/// A texture (and the texture coordinate set it is read with), or none.
+type TexSlot<'a> = Option<(&'a Texture, u32)>;
+
+/// The value of texture slot `tex` of `tri` at barycentrics `(b1, b2)`: 1 without a texture.
+fn surface_value(tri: &crate::scene::Triangle, tex: TexSlot, b1: f32, b2: f32) -> Vec3 {
+    tex.map_or(Vec3::ONE, |(t, set)| {
+        t.bilinear(tri.uv_at(set, b1, b2)).truncate()
+    })
+}
+
+/// The means of face `fi`'s texels ([`TEXTURE_SAMPLES`]): every texel a triangle's bounding box
+/// touches gets an S × S grid of points (S from that triangle's uv gradients); those inside
+/// the triangle sample the textures at their interpolated uvs (each slot its own set), the
+/// base colour's times the interpolated vertex colour when `colored`, weighted by the area
+/// 1/S² they stand for. A missing texture reads 1.
+#[allow(clippy::too_many_arguments)]
 fn texture_means(
     scene: &Scene,
     fi: usize,
     basis: &crate::scene::PlaneBasis,
     texel_size: f32,
     (w, h): (usize, usize),
-    textures: [Option<&Texture>; 2],
+    textures: [TexSlot; 2],
+    colored: bool,
     masks: Option<&AlphaMasks>,
 ) -> TextureMeans {
     let mut m = TextureMeans {
@@ -440,7 +484,7 @@ fn texture_means(
     let mask_tex = masks.and_then(|_| {
         scene.materials[scene.faces[fi].material as usize]
             .base_color_texture
-            .map(|t| &scene.textures[t.index as usize])
+            .map(|t| (&scene.textures[t.index as usize], t.texcoord.min(1)))
     });
     for (k, tri) in scene.face_triangles(fi).iter().enumerate() {
         let ti = first + k as u32;
@@ -451,14 +495,15 @@ fn texture_means(
             continue;
         }
         // uv per unit of chart x and y (texel units), then texture texels per atlas texel.
-        let (d1, d2) = (tri.uv[1] - tri.uv[0], tri.uv[2] - tri.uv[0]);
-        let du_dx = (d1 * e2.y - d2 * e1.y) / det;
-        let du_dy = (d2 * e1.x - d1 * e2.x) / det;
         let density = textures
             .iter()
             .chain(std::iter::once(&mask_tex))
             .flatten()
-            .map(|t| {
+            .map(|(t, set)| {
+                let uv = tri.uv_set(*set);
+                let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+                let du_dx = (d1 * e2.y - d2 * e1.y) / det;
+                let du_dy = (d2 * e1.x - d1 * e2.x) / det;
                 let size = Vec2::new(t.width as f32, t.height as f32);
                 (du_dx * size).length().max((du_dy * size).length())
             })
@@ -493,11 +538,13 @@ fn texture_means(
                         if masks.is_some_and(|mk| mk.cuts(ti, [1.0 - b1 - b2, b1, b2])) {
                             continue;
                         }
-                        let uv = tri.uv[0] * (1.0 - b1 - b2) + tri.uv[1] * b1 + tri.uv[2] * b2;
-                        for (k, t) in textures.iter().enumerate() {
-                            if let Some(t) = t {
-                                m.sum[k][i] += t.bilinear(uv).truncate() * wgt;
-                            }
+                        let mut base = surface_value(tri, textures[0], b1, b2);
+                        if colored {
+                            base *= tri.color_at(b1, b2);
+                        }
+                        m.sum[0][i] += base * wgt;
+                        if textures[1].is_some() {
+                            m.sum[1][i] += surface_value(tri, textures[1], b1, b2) * wgt;
                         }
                         m.open[i] += wgt;
                     }
@@ -566,24 +613,17 @@ fn polygon_area_centroid(poly: &[Vec2]) -> (f64, Vec2) {
     (a2.abs() * 0.5, c)
 }
 
-/// The barycentric weights (of corners 0, 1, 2) of chart point `c` in triangle `q` (corner 0
-/// alone for a degenerate triangle).
-fn weights_at(q: &[Vec2; 3], c: Vec2) -> [f32; 3] {
+/// Barycentric weights `(b1, b2)` of corners 1 and 2 at chart point `c` of triangle `q` (0
+/// for a degenerate triangle).
+fn barycentrics(q: &[Vec2; 3], c: Vec2) -> (f32, f32) {
     let e1 = q[1] - q[0];
     let e2 = q[2] - q[0];
     let d = c - q[0];
     let det = e1.perp_dot(e2);
     if det.abs() < 1e-20 {
-        return [1.0, 0.0, 0.0];
+        return (0.0, 0.0);
     }
-    let b1 = d.perp_dot(e2) / det;
-    let b2 = e1.perp_dot(d) / det;
-    [1.0 - b1 - b2, b1, b2]
-}
-
-/// Interpolates uv with barycentric weights `w`.
-fn uv_at(uv: &[Vec2; 3], w: [f32; 3]) -> Vec2 {
-    uv[0] * w[0] + uv[1] * w[1] + uv[2] * w[2]
+    (d.perp_dot(e2) / det, e1.perp_dot(d) / det)
 }
 
 #[cfg(test)]

@@ -49,6 +49,19 @@ pub const NOT_EXPORTED: &str = "Only diffuse light is exported (the lightmaps ho
     field: mirror faces and the mirror part of mixed faces show only what the engine renders \
     for them.";
 
+/// The source texture coordinate sets a material's exported primitives carry: the set exported
+/// as `TEXCOORD_0` (the base-colour texture's, else the emissive texture's, else 0) and, where
+/// the emissive texture reads another set than the base colour's, the set exported as
+/// `TEXCOORD_2` (`TEXCOORD_1` holds the lightmap's coordinates).
+fn export_sets(m: &crate::scene::Material) -> (u32, Option<u32>) {
+    match (m.base_color_texture, m.emissive_texture) {
+        (Some(b), Some(e)) if b.texcoord != e.texcoord => (b.texcoord, Some(e.texcoord)),
+        (Some(b), _) => (b.texcoord, None),
+        (None, Some(e)) => (e.texcoord, None),
+        (None, None) => (0, None),
+    }
+}
+
 /// How the lightmap pages are encoded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightmapEncoding {
@@ -413,6 +426,7 @@ impl<'a> Writer<'a> {
         let (base_tex, emissive_tex, emission) =
             (mat.base_color_texture, mat.emissive_texture, mat.emission);
         let name = format!("{}{}", mat.name, if back { " (back)" } else { "" });
+        let (_, second) = export_sets(mat);
         if let Some(t) = base_tex {
             pbr["baseColorTexture"] =
                 json!({ "index": self.scene_texture(t.index)?, "texCoord": 0 });
@@ -457,8 +471,10 @@ impl<'a> Writer<'a> {
                 self.use_extension("KHR_materials_emissive_strength");
             }
             if let Some(t) = emissive_tex {
+                // TEXCOORD_2 where it reads another set than the base colour (`export_sets`).
+                let set = if second.is_some() { 2 } else { 0 };
                 material["emissiveTexture"] =
-                    json!({ "index": self.scene_texture(t.index)?, "texCoord": 0 });
+                    json!({ "index": self.scene_texture(t.index)?, "texCoord": set });
             }
         }
         material["extensions"] = Value::Object(extensions);
@@ -482,7 +498,10 @@ impl<'a> Writer<'a> {
     }
 
     /// One primitive per (material, side, page); vertices shared within a primitive only where
-    /// position and both uv sets agree.
+    /// position, normal, colour and every uv set agree. A smooth triangle's corners carry its
+    /// shading normals (the face's normal otherwise), a coloured material's its vertex
+    /// colours (`COLOR_0`), and `TEXCOORD_0` (and `TEXCOORD_2`) the sets its textures read
+    /// (`export_sets`): `TEXCOORD_1` is the lightmap's.
     fn geometry(
         &mut self,
         lf: &LightField,
@@ -492,10 +511,19 @@ impl<'a> Writer<'a> {
         struct Prim {
             positions: Vec<[f32; 3]>,
             normals: Vec<[f32; 3]>,
+            colors: Vec<[f32; 3]>,
             uv0: Vec<[f32; 2]>,
             uv1: Vec<[f32; 2]>,
+            uv2: Vec<[f32; 2]>,
             indices: Vec<u32>,
-            dedup: HashMap<[u32; 7], u32>,
+            dedup: HashMap<[u32; 15], u32>,
+        }
+        // Normals and colours as the light field holds them (a bake with `--flat-normals` has
+        // none); materials some of whose triangles have vertex colours carry COLOR_0.
+        let (normals, colors) = (&lf.shading.normals, &lf.shading.colors);
+        let mut colored = vec![false; scene.materials.len()];
+        for (i, t) in scene.triangles.iter().enumerate() {
+            colored[t.material as usize] |= colors.as_ref().is_some_and(|c| c[i] != [[1.0; 3]; 3]);
         }
         let mut prims: Vec<((u32, bool, u32), Prim)> = Vec::new();
         let mut slot: HashMap<(u32, bool, u32), usize> = HashMap::new();
@@ -514,8 +542,10 @@ impl<'a> Writer<'a> {
                         Prim {
                             positions: Vec::new(),
                             normals: Vec::new(),
+                            colors: Vec::new(),
                             uv0: Vec::new(),
                             uv1: Vec::new(),
+                            uv2: Vec::new(),
                             indices: Vec::new(),
                             dedup: HashMap::new(),
                         },
@@ -523,10 +553,18 @@ impl<'a> Writer<'a> {
                     prims.len() - 1
                 });
                 let prim = &mut prims[k].1;
-                let n = if back { -face.normal } else { face.normal };
-                for tri in scene.face_triangles(fi) {
+                let (first, second) = export_sets(&scene.materials[face.material as usize]);
+                for ti in face.triangles.clone() {
+                    let tri = &scene.triangles[ti as usize];
                     let order: [usize; 3] = if back { [0, 2, 1] } else { [0, 1, 2] };
                     for c in order {
+                        let n = match normals.as_ref().map(|n| Vec3::from(n[ti as usize][c])) {
+                            Some(n) if n != Vec3::ZERO => n,
+                            _ => face.normal,
+                        };
+                        let n = if back { -n } else { n }.to_array();
+                        let color = colors.as_ref().map_or([1.0; 3], |col| col[ti as usize][c]);
+                        let uv2 = second.map_or([0.0; 2], |set| tri.uv_set(set)[c].to_array());
                         let pos = tri.p[c];
                         let d = xf.apply(pos) - o;
                         let chart = Vec2::new(d.dot(u), d.dot(v)) / bf.texel_size;
@@ -534,7 +572,7 @@ impl<'a> Writer<'a> {
                             (p.x as f32 + chart.x) / pw as f32,
                             (p.y as f32 + chart.y) / ph as f32,
                         ];
-                        let uv0 = tri.uv[c].to_array();
+                        let uv0 = tri.uv_set(first)[c].to_array();
                         let bits = [
                             pos.x.to_bits(),
                             pos.y.to_bits(),
@@ -543,14 +581,24 @@ impl<'a> Writer<'a> {
                             uv0[1].to_bits(),
                             uv1[0].to_bits(),
                             uv1[1].to_bits(),
+                            n[0].to_bits(),
+                            n[1].to_bits(),
+                            n[2].to_bits(),
+                            color[0].to_bits(),
+                            color[1].to_bits(),
+                            color[2].to_bits(),
+                            uv2[0].to_bits(),
+                            uv2[1].to_bits(),
                         ];
                         let next = prim.positions.len() as u32;
                         let index = *prim.dedup.entry(bits).or_insert(next);
                         if index == next {
                             prim.positions.push(pos.to_array());
-                            prim.normals.push(n.to_array());
+                            prim.normals.push(n);
+                            prim.colors.push(color);
                             prim.uv0.push(uv0);
                             prim.uv1.push(uv1);
+                            prim.uv2.push(uv2);
                         }
                         prim.indices.push(index);
                     }
@@ -564,12 +612,18 @@ impl<'a> Writer<'a> {
             let material = self.material(m, back, page)?;
             // TEXCOORD_0 always (the source's, zeros where it had none): glTF numbers
             // TEXCOORD sets from 0 without gaps.
-            let attributes = json!({
+            let mut attributes = json!({
                 "POSITION": self.buf.floats(&prim.positions, true),
                 "NORMAL": self.buf.floats(&prim.normals, false),
                 "TEXCOORD_0": self.buf.floats(&prim.uv0, false),
                 "TEXCOORD_1": self.buf.floats(&prim.uv1, false),
             });
+            if export_sets(&scene.materials[m as usize]).1.is_some() {
+                attributes["TEXCOORD_2"] = json!(self.buf.floats(&prim.uv2, false));
+            }
+            if colored[m as usize] {
+                attributes["COLOR_0"] = json!(self.buf.floats(&prim.colors, false));
+            }
             self.triangles += prim.indices.len() / 3;
             self.vertices += prim.positions.len();
             self.primitives.push(json!({

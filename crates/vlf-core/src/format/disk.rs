@@ -166,6 +166,15 @@ pub const KIND_TEXELS: u32 = 8;
 /// How the final gather sampled and filtered the atlas ([`FileGatherSampling`], one element;
 /// optional: written when the gather sampled adaptively, guided or denoised).
 pub const KIND_GATHER_SAMPLING: u32 = 9;
+/// Per triangle: `TEXCOORD_1` at its corners (`format::shading::FileUvs`); written when some
+/// material reads a texture with set 1.
+pub const KIND_UVS1: u32 = 10;
+/// Per triangle: three vectors at its corners (`format::shading::FileCorners`): the shading
+/// normals (section `normals`) or the vertex colours (section `colors`).
+pub const KIND_CORNERS: u32 = 11;
+/// Per material: which texture slots read `TEXCOORD_1` (`u32`: bit 0 base colour, bit 1
+/// emissive).
+pub const KIND_MATERIAL_TEXCOORDS: u32 = 12;
 
 /// Section `gather_sampling`: the parts of [`GatherParams`] the header's [`FileGather`] has
 /// no field for (added without a new version: an optional section, which older readers skip).
@@ -204,10 +213,10 @@ impl FileGatherSampling {
 
 /// What lets light through each material ([`crate::format::shading::FileSurface`], one per
 /// material; written, required, when a material masks or is a pane).
-pub const KIND_SURFACE: u32 = 10;
+pub const KIND_SURFACE: u32 = 13;
 /// Texture alpha: IEEE binary16 (2 bytes) per texel, the `texels` section's texels; written,
 /// required, when a material masks.
-pub const KIND_TEXTURE_ALPHA: u32 = 11;
+pub const KIND_TEXTURE_ALPHA: u32 = 14;
 
 /// Section names.
 pub const SECTION_TRIANGLES: &str = "triangles";
@@ -220,6 +229,13 @@ pub const SECTION_TEXELS: &str = "texels";
 pub const SECTION_GATHER_SAMPLING: &str = "gather_sampling";
 pub const SECTION_SURFACES: &str = "surfaces";
 pub const SECTION_TEXTURE_ALPHA: &str = "texture_alpha";
+/// Optional sections of the per-corner attributes (required when written: a reader that
+/// cannot use them cannot render the file right); each is written only where the scene has
+/// the attribute, so files of scenes without them are unchanged.
+pub const SECTION_UVS1: &str = "uvs1";
+pub const SECTION_NORMALS: &str = "normals";
+pub const SECTION_COLORS: &str = "colors";
+pub const SECTION_MATERIAL_TEXCOORDS: &str = "material_texcoords";
 /// Optional pair: both present (scenes with mirror/mixed faces) or both absent.
 pub const SECTION_TILE_INDEX: &str = "tile_index";
 pub const SECTION_TILE_RADIANCE: &str = "tile_radiance";

@@ -189,25 +189,22 @@ pub fn read_bytes(bytes: &[u8], path: &Path) -> Result<LightField, FormatError> 
 }
 
 /// Reads only the preamble, header and section table of `path` (a few KiB, however large the
-/// file) and summarises them. Section checksums are not verified; the header's is.
+/// file), and the final gather's few-byte `gather_sampling` section that completes the bake
+/// parameters, and summarises them. Other sections' checksums are not verified; the header's
+/// is.
 pub fn describe(path: &Path) -> Result<FileInfo, FormatError> {
     let src = FileSource::open(path)?;
-    let head = read_head(&src, path)?;
-    Ok(FileInfo::new(
-        path,
-        &head.preamble,
-        &head.header,
-        head.encoding,
-    ))
+    describe_from(&src, path)
 }
 
 /// Like [`describe`] for a file in memory.
 pub fn describe_bytes(bytes: &[u8], path: &Path) -> Result<FileInfo, FormatError> {
-    let head = read_head(&Bytes(bytes), path)?;
-    Ok(FileInfo::new(
-        path,
-        &head.preamble,
-        &head.header,
-        head.encoding,
-    ))
+    describe_from(&Bytes(bytes), path)
+}
+
+fn describe_from(src: &dyn source::Source, path: &Path) -> Result<FileInfo, FormatError> {
+    let head = read_head(src, path)?;
+    let mut info = FileInfo::new(path, &head.preamble, &head.header, head.encoding);
+    info.params = read::params_of(src, &head.header, path)?;
+    Ok(info)
 }

@@ -175,6 +175,11 @@ fn known_section(name: &str, enc: RadianceEncoding) -> Option<(u32, usize)> {
             disk::KIND_GATHER_SAMPLING,
             size_of::<disk::FileGatherSampling>(),
         )),
+        disk::SECTION_UVS1 => Some((disk::KIND_UVS1, size_of::<FileUvs>())),
+        disk::SECTION_NORMALS | disk::SECTION_COLORS => {
+            Some((disk::KIND_CORNERS, size_of::<shading::FileCorners>()))
+        }
+        disk::SECTION_MATERIAL_TEXCOORDS => Some((disk::KIND_MATERIAL_TEXCOORDS, 4)),
         _ => None,
     }
 }
@@ -311,12 +316,31 @@ fn check_sections(
         ));
     }
     let count = |name| h.sections.iter().find(|s| s.name == name).map(|s| s.count);
-    if let (Some(uvs), Some(tris)) = (count(disk::SECTION_UVS), count(disk::SECTION_TRIANGLES))
-        && uvs != tris
+    let tris = count(disk::SECTION_TRIANGLES);
+    for (name, what) in [
+        (disk::SECTION_UVS, "uv triples"),
+        (disk::SECTION_UVS1, "uv triples"),
+        (disk::SECTION_NORMALS, "normal triples"),
+        (disk::SECTION_COLORS, "colour triples"),
+    ] {
+        if let (Some(n), Some(tris)) = (count(name), tris)
+            && n != tris
+        {
+            return Err(FormatError::Section {
+                section: name.into(),
+                reason: format!("{n} {what} for {tris} triangles"),
+                path: path.to_owned(),
+            });
+        }
+    }
+    if let (Some(n), Some(m)) = (
+        count(disk::SECTION_MATERIAL_TEXCOORDS),
+        count(disk::SECTION_MATERIALS),
+    ) && n != m
     {
         return Err(FormatError::Section {
-            section: disk::SECTION_UVS.into(),
-            reason: format!("{uvs} uv triples for {tris} triangles"),
+            section: disk::SECTION_MATERIAL_TEXCOORDS.into(),
+            reason: format!("{n} words for {m} materials"),
             path: path.to_owned(),
         });
     }
@@ -384,31 +408,7 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
             ),
         )));
     }
-    let mut params = BakeParams::from(&h.params);
-    if let Some(s) = h
-        .sections
-        .iter()
-        .find(|s| s.name == disk::SECTION_GATHER_SAMPLING)
-    {
-        let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
-        match (rec.as_slice(), params.final_gather.as_mut()) {
-            ([r], Some(g)) => r.apply(g),
-            _ => {
-                return Err(content((
-                    "gather sampling".into(),
-                    format!(
-                        "{} records for {} final gather",
-                        rec.len(),
-                        if params.final_gather.is_some() {
-                            "a"
-                        } else {
-                            "no"
-                        }
-                    ),
-                )));
-            }
-        }
-    }
+    let params = params_of(src, h, path)?;
     let to_vlf = (&h.transform).into();
     let cameras: Vec<_> = h.cameras.iter().map(Into::into).collect();
     validate_header_content(&params, &to_vlf, &cameras).map_err(content)?;
@@ -439,6 +439,22 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
     {
         shading.alpha = read_u16s(src, sec, path)?;
     }
+    let optional = |name: &str| h.sections.iter().find(|s| s.name == name);
+    let attrs = shading::Attributes {
+        uvs1: optional(disk::SECTION_UVS1)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        normals: optional(disk::SECTION_NORMALS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        colors: optional(disk::SECTION_COLORS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+        texcoords: optional(disk::SECTION_MATERIAL_TEXCOORDS)
+            .map(|s| read_pod(src, s, path))
+            .transpose()?,
+    };
+    shading::unpack_attributes(&mut shading, attrs).map_err(content)?;
     validate_geometry(
         &triangles,
         &faces,
@@ -510,6 +526,48 @@ fn elements(s: &SectionEntry, path: &Path) -> Result<usize, FormatError> {
         reason: format!("{} elements do not fit in this platform's memory", s.count),
         path: path.to_owned(),
     })
+}
+
+/// The bake parameters a file records: the header's, with the final gather's sampling and
+/// denoising from section `gather_sampling` where the file has one. [`read_from`] and
+/// [`super::describe`] both read them here, so a file's parameters are the same whichever way
+/// it is opened (`vlf-bake batch` compares them to decide whether an output is up to date).
+pub(super) fn params_of(
+    src: &dyn Source,
+    h: &FileHeader,
+    path: &Path,
+) -> Result<BakeParams, FormatError> {
+    let content = |(element, reason)| FormatError::Content {
+        element,
+        reason,
+        path: path.to_owned(),
+    };
+    let mut params = BakeParams::from(&h.params);
+    if let Some(s) = h
+        .sections
+        .iter()
+        .find(|s| s.name == disk::SECTION_GATHER_SAMPLING)
+    {
+        let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
+        match (rec.as_slice(), params.final_gather.as_mut()) {
+            ([r], Some(g)) => r.apply(g),
+            _ => {
+                return Err(content((
+                    "gather sampling".into(),
+                    format!(
+                        "{} records for {} final gather",
+                        rec.len(),
+                        if params.final_gather.is_some() {
+                            "a"
+                        } else {
+                            "no"
+                        }
+                    ),
+                )));
+            }
+        }
+    }
+    Ok(params)
 }
 
 /// Reads a section of `Pod` elements with one read into an aligned `Vec` and checks it.

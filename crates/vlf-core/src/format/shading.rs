@@ -31,6 +31,106 @@ pub struct FileUvs {
     pub uv: [f32; 6],
 }
 
+/// Three vectors at a triangle's corners (36 bytes: x0 y0 z0 x1 y1 z1 x2 y2 z2): its shading
+/// normals or its vertex colours.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileCorners {
+    pub v: [f32; 9],
+}
+
+impl From<&[[f32; 3]; 3]> for FileCorners {
+    fn from(t: &[[f32; 3]; 3]) -> Self {
+        let mut v = [0.0; 9];
+        for (k, c) in t.iter().enumerate() {
+            v[3 * k..3 * k + 3].copy_from_slice(c);
+        }
+        FileCorners { v }
+    }
+}
+
+impl From<&FileCorners> for [[f32; 3]; 3] {
+    fn from(t: &FileCorners) -> Self {
+        let v = t.v;
+        [[v[0], v[1], v[2]], [v[3], v[4], v[5]], [v[6], v[7], v[8]]]
+    }
+}
+
+/// Bit of a `material_texcoords` word: the base-colour texture reads `TEXCOORD_1`.
+pub const TEXCOORD1_BASE: u32 = 1;
+/// Bit of a `material_texcoords` word: the emissive texture reads `TEXCOORD_1`.
+pub const TEXCOORD1_EMISSIVE: u32 = 2;
+
+/// The optional per-corner sections of a [`Shading`] (each `None` when not written).
+#[derive(Default)]
+pub(super) struct Attributes {
+    pub uvs1: Option<Vec<FileUvs>>,
+    pub normals: Option<Vec<FileCorners>>,
+    pub colors: Option<Vec<FileCorners>>,
+    pub texcoords: Option<Vec<u32>>,
+}
+
+/// The optional sections of `s` (see [`Attributes`]): the material words only where some
+/// material reads `TEXCOORD_1`.
+pub(super) fn pack_attributes(s: &Shading) -> Attributes {
+    let words: Vec<u32> = s
+        .materials
+        .iter()
+        .map(|m| {
+            (if m.base_color_texcoord == 1 {
+                TEXCOORD1_BASE
+            } else {
+                0
+            }) | (if m.emissive_texcoord == 1 {
+                TEXCOORD1_EMISSIVE
+            } else {
+                0
+            })
+        })
+        .collect();
+    Attributes {
+        uvs1: s
+            .uvs1
+            .as_ref()
+            .map(|u| u.iter().map(FileUvs::from).collect()),
+        normals: (s.normals.as_ref()).map(|n| n.iter().map(FileCorners::from).collect()),
+        colors: (s.colors.as_ref()).map(|c| c.iter().map(FileCorners::from).collect()),
+        texcoords: words.iter().any(|w| *w != 0).then_some(words),
+    }
+}
+
+/// Adds the optional sections `a` to `s`; `Err` names a material word with unknown bits.
+pub(super) fn unpack_attributes(s: &mut Shading, a: Attributes) -> Result<(), (String, String)> {
+    s.uvs1 = a
+        .uvs1
+        .map(|u| u.iter().map(<[[f32; 2]; 3]>::from).collect());
+    s.normals = a
+        .normals
+        .map(|n| n.iter().map(<[[f32; 3]; 3]>::from).collect());
+    s.colors = a
+        .colors
+        .map(|c| c.iter().map(<[[f32; 3]; 3]>::from).collect());
+    if let Some(words) = a.texcoords {
+        if words.len() != s.materials.len() {
+            return Err((
+                "material_texcoords".into(),
+                format!("{} words for {} materials", words.len(), s.materials.len()),
+            ));
+        }
+        for (i, (m, w)) in s.materials.iter_mut().zip(words).enumerate() {
+            if w & !(TEXCOORD1_BASE | TEXCOORD1_EMISSIVE) != 0 {
+                return Err((
+                    format!("material {i}"),
+                    format!("unknown texcoord bits {w:#x}"),
+                ));
+            }
+            m.base_color_texcoord = u32::from(w & TEXCOORD1_BASE != 0);
+            m.emissive_texcoord = u32::from(w & TEXCOORD1_EMISSIVE != 0);
+        }
+    }
+    Ok(())
+}
+
 /// A texture's size and wrap modes (16 bytes); its texels follow the previous textures' in
 /// the `texels` section.
 #[repr(C)]
@@ -198,6 +298,9 @@ pub(super) fn unpack(
     Ok(Shading {
         materials: materials.iter().map(SurfaceMaterial::from).collect(),
         uvs: uvs.iter().map(<[[f32; 2]; 3]>::from).collect(),
+        uvs1: None,
+        normals: None,
+        colors: None,
         textures,
         texels,
         alpha: Vec::new(),

@@ -232,6 +232,48 @@ pub(super) fn encode<'a>(
         ));
         bodies.push(Cow::Owned(bytes));
     }
+    // The per-corner attributes, where the scene has them (required: a reader that does not
+    // know them cannot render the file right).
+    let attrs = shading::pack_attributes(&lf.shading);
+    let optional: [(&str, u32, usize, Option<Vec<u8>>); 4] = [
+        (
+            disk::SECTION_UVS1,
+            disk::KIND_UVS1,
+            size_of::<shading::FileUvs>(),
+            attrs.uvs1.map(pod_section),
+        ),
+        (
+            disk::SECTION_NORMALS,
+            disk::KIND_CORNERS,
+            size_of::<shading::FileCorners>(),
+            attrs.normals.map(pod_section),
+        ),
+        (
+            disk::SECTION_COLORS,
+            disk::KIND_CORNERS,
+            size_of::<shading::FileCorners>(),
+            attrs.colors.map(pod_section),
+        ),
+        (
+            disk::SECTION_MATERIAL_TEXCOORDS,
+            disk::KIND_MATERIAL_TEXCOORDS,
+            4,
+            attrs.texcoords.map(pod_section),
+        ),
+    ];
+    for (name, kind, elem, bytes) in optional {
+        if let Some(bytes) = bytes {
+            sections.push(entry(
+                name,
+                kind,
+                bytes.len() / elem,
+                elem,
+                &bytes,
+                hash::section_checksum(&bytes),
+            ));
+            bodies.push(Cow::Owned(bytes));
+        }
+    }
     if let Some(rec) = lf
         .params
         .final_gather

@@ -1,5 +1,6 @@
 //! The converged light field as a gather ray reads it at its first hit: the propagation's
-//! irradiance atlas (times the hit point's own albedo, texture included) for the diffuse part,
+//! irradiance atlas (times the hit point's own albedo, texture and vertex colour included) for
+//! the diffuse part,
 //! and the sparse mirror tiles in the ray's direction for the specular part — the same lookups
 //! the renderer's pass 5 does ([`Tiles::radiance_towards`] is its CPU form) — except that the
 //! atlas' bilinear filter never reaches across a contact ([`Contacts`]).
@@ -36,15 +37,25 @@ pub struct Field<'a> {
 }
 
 /// Where a ray landed: the hit point in VLF and world coordinates, its face, texture coordinates
-/// and whether the ray arrived at the face's front.
+/// (sets 0 and 1), vertex colour and whether the ray arrived at the face's front.
 pub struct SurfaceHit {
     pub face: u32,
     pub material: u32,
     pub world: Vec3,
     pub vlf: Vec3,
-    pub uv: Vec2,
+    /// `TEXCOORD_0` and `TEXCOORD_1` at the hit.
+    pub uv: [Vec2; 2],
+    /// The vertex colour at the hit (1 without).
+    pub color: Vec3,
     /// The side the ray arrived at (0 = front).
     pub side: u32,
+}
+
+impl SurfaceHit {
+    /// The texture coordinates a texture slot reading set `texcoord` uses.
+    pub fn uv_of(&self, tex: crate::scene::TexRef) -> Vec2 {
+        self.uv[tex.texcoord.min(1) as usize]
+    }
 }
 
 impl<'a> Field<'a> {
@@ -93,13 +104,14 @@ impl<'a> Field<'a> {
             material: st.material,
             world,
             vlf: self.scene.to_vlf.apply(world),
-            uv,
+            uv: [uv, st.uv_at(1, b1, b2)],
+            color: st.color_at(b1, b2),
             side: if f.normal().dot(-dir) >= 0.0 { 0 } else { 1 },
         }
     }
 
     /// Diffuse (Lambertian) radiance leaving `s` on the side its ray arrived at: albedo at its
-    /// uv / π × the atlas' irradiance there.
+    /// uv (× its vertex colour) / π × the atlas' irradiance there.
     pub fn diffuse(&self, s: &SurfaceHit) -> Vec3 {
         let m = &self.scene.materials[s.material as usize];
         // The diffuse albedo the bake used (a rough metal folded into it included).
@@ -109,9 +121,10 @@ impl<'a> Field<'a> {
         }
         if let Some(t) = m.base_color_texture {
             rho *= self.scene.textures[t.index as usize]
-                .bilinear(s.uv)
+                .bilinear(s.uv_of(t))
                 .truncate();
         }
+        rho *= s.color;
         let mut e = self.irradiance_at(s);
         if let Some((atlas, direct)) = &self.direct {
             e += chart_bilinear(&atlas.faces[s.face as usize], direct, s.side, s.vlf);
@@ -129,14 +142,27 @@ impl<'a> Field<'a> {
     /// nor the texels at the box's foot (which hold light from both sides), and a floor point
     /// outside not the dark ones.
     pub fn irradiance_at(&self, s: &SurfaceHit) -> Vec3 {
-        let f = &self.atlas.faces[s.face as usize];
-        let q = Quad::at(f, s.side, s.vlf);
+        self.irradiance_on(s.face, s.side, s.vlf, s.world)
+    }
+
+    /// Whether a read of `face`'s `side` at VLF point `vlf` is plain bilinear (no contact
+    /// near it).
+    pub fn clear_at(&self, face: u32, side: u32, vlf: Vec3) -> bool {
+        let q = Quad::at(&self.atlas.faces[face as usize], side, vlf);
+        self.contacts.quad_is_clear(&q)
+    }
+
+    /// [`Field::irradiance_at`] at a point of `face`'s `side` given in VLF (`vlf`) and world
+    /// (`world`) coordinates.
+    pub fn irradiance_on(&self, face: u32, side: u32, vlf: Vec3, world: Vec3) -> Vec3 {
+        let f = &self.atlas.faces[face as usize];
+        let q = Quad::at(f, side, vlf);
         let at = |t: u32| Vec4::from(self.irradiance[t as usize]).truncate();
         if self.contacts.quad_is_clear(&q) {
             return q.bilinear(&self.irradiance);
         }
-        let n = if s.side == 0 { f.normal() } else { -f.normal() };
-        let from = self.contacts.lift(f, s.world, n);
+        let n = if side == 0 { f.normal() } else { -f.normal() };
+        let from = self.contacts.lift(f, world, n);
         let sees = |t: u32| self.contacts.sees(from, self.contacts.centre(f, t, n));
         // The quad's texels that `s` sees: per class (uncut, cut), Σ w·E and Σ w.
         let mut quad = [(Vec3::ZERO, 0.0f32); 2];
@@ -152,8 +178,8 @@ impl<'a> Field<'a> {
             return quad[0].0 / quad[0].1;
         }
         // Uncut texels it sees within two texels (tent weights).
-        let c = chart_coords(f, s.vlf);
-        let base = f.texel_base + s.side * f.width * f.height;
+        let c = chart_coords(f, vlf);
+        let base = f.texel_base + side * f.width * f.height;
         let (ci, cj) = (c.x.floor() as i64, c.y.floor() as i64);
         let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
         for j in (cj - 2).max(0)..=(cj + 2).min(i64::from(f.height) - 1) {
@@ -186,7 +212,7 @@ impl<'a> Field<'a> {
             Some(t) => {
                 m.emission
                     * self.scene.textures[t.index as usize]
-                        .bilinear(s.uv)
+                        .bilinear(s.uv_of(t))
                         .truncate()
             }
             None => m.emission,
@@ -422,7 +448,7 @@ impl<'a> Contacts<'a> {
 }
 
 /// Chart-space triangles (texel units) of every face of an atlas, to tell whether a chart
-/// point lies on its face.
+/// point lies on its face, and their shading normals, to tell the shading normal there.
 pub struct Charts {
     tris: Vec<Vec<[Vec2; 3]>>,
     /// Index of each face's first triangle in the scene (its triangles follow it).
@@ -430,6 +456,8 @@ pub struct Charts {
     /// The triangles' alpha masks (by scene index): a point where they leave no surface is
     /// not on the face.
     masks: AlphaMasks,
+    /// The shading normals of each face's triangles (`None`: flat).
+    normals: Vec<Vec<Option<[Vec3; 3]>>>,
 }
 
 impl Charts {
@@ -448,10 +476,14 @@ impl Charts {
                     .collect()
             })
             .collect();
+        let normals = (0..atlas.faces.len())
+            .map(|fi| scene.face_triangles(fi).iter().map(|t| t.normals).collect())
+            .collect();
         Self {
             tris,
             first,
             masks: atlas.masks.clone(),
+            normals,
         }
     }
 
@@ -466,23 +498,61 @@ impl Charts {
         &self.tris[face]
     }
 
-    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles, where its
-    /// alpha mask (if any) leaves a surface: the first triangle that holds it decides.
-    pub fn inside(&self, face: usize, c: Vec2) -> bool {
+    /// The shading normals of `face`'s triangles, in the order of [`Charts::triangles`].
+    pub fn normals(&self, face: usize) -> &[Option<[Vec3; 3]>] {
+        &self.normals[face]
+    }
+
+    /// The first of `face`'s triangles holding chart point `c` (texel units), `None` when none
+    /// does or when its alpha mask (if any) leaves no surface there (the first triangle that
+    /// holds it decides).
+    pub fn locate(&self, face: usize, c: Vec2) -> Option<usize> {
         for (k, q) in self.tris[face].iter().enumerate() {
             let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
             let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
             if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
                 let sum = d0 + d1 + d2;
                 if self.masks.is_empty() || sum == 0.0 {
-                    return true;
+                    return Some(k);
                 }
                 // d1, d2, d0 are twice the areas opposite corners 0, 1, 2.
                 let tri = self.first[face] + k as u32;
-                return !self.masks.cuts(tri, [d1 / sum, d2 / sum, d0 / sum]);
+                return (!self.masks.cuts(tri, [d1 / sum, d2 / sum, d0 / sum])).then_some(k);
             }
         }
-        false
+        None
+    }
+
+    /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.
+    pub fn inside(&self, face: usize, c: Vec2) -> bool {
+        self.locate(face, c).is_some()
+    }
+
+    /// The unit shading normal at chart point `c` of triangle `tri` of `face`, on the side
+    /// whose unit geometric normal is `n`: its corner normals interpolated with the chart
+    /// barycentrics of `c` and renormalised (turned to `n`'s side). `n` itself where the
+    /// triangle is flat. As `point_normal` of `shaders/gather_texels.wgsl`.
+    pub fn shading_normal(&self, face: usize, tri: usize, c: Vec2, n: Vec3) -> Vec3 {
+        let Some(ns) = self.normals[face][tri] else {
+            return n;
+        };
+        let q = &self.tris[face][tri];
+        let (e1, e2) = (q[1] - q[0], q[2] - q[0]);
+        let det = e1.perp_dot(e2);
+        let d = c - q[0];
+        let (b1, b2) = if det != 0.0 {
+            (d.perp_dot(e2) / det, e1.perp_dot(d) / det)
+        } else {
+            (0.0, 0.0)
+        };
+        let m = (ns[0] * (1.0 - b1 - b2) + ns[1] * b1 + ns[2] * b2).normalize_or_zero();
+        if m == Vec3::ZERO {
+            n
+        } else if m.dot(n) < 0.0 {
+            -m
+        } else {
+            m
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 //!
 //! * **direct light, sampled explicitly** at the stored atlas' resolution: area emitters
 //!   (textured ones too) by samples over their surface paired with stratified points of the
-//!   texel, with shadow rays; suns by shadow rays along their exact direction;
+//!   texel, with shadow rays; suns, point and spot lights by a shadow ray from each point;
 //! * **indirect light by gather rays** on a coarser grid (it varies slowly): stratified
 //!   cosine-distributed rays from stratified points of the texel read the converged light field
 //!   at their first hit ([`field`]: the propagation's irradiance times the hit point's albedo,
@@ -14,12 +14,22 @@
 //! Sample points lie on the texel's own face where the texel is open ([`points`]), rays start
 //! a few ulps off the surface, and every texel has its own random stream, so the result does
 //! not depend on the thread count. This module is the specification of the GPU gather.
+//!
+//! **Shading normals.** Where a texel's triangle is smooth, every sample point carries the
+//! interpolated normal there ([`GatherPoint::n`]) and the irradiance is gathered about it:
+//! cosine rays and the cosine of light samples, suns and the guide's cells are taken about the
+//! shading normal. The rays still start on the geometric face (offset along its normal), and a
+//! direction below the geometric surface brings nothing: its ray would enter the solid the
+//! face bounds (the renderers that use shading normals meet the inside of the object there:
+//! dark for a closed one). A flat point's shading normal is the face's own normal, and then
+//! nothing changes.
 
 pub mod denoise;
 pub mod field;
 pub mod guide;
 pub mod points;
 mod sampled;
+mod strata;
 pub mod through;
 
 use glam::{Vec2, Vec3, Vec4};
@@ -34,11 +44,13 @@ use crate::pathtrace::sampling::{self, Rng};
 use crate::pathtrace::{Bvh, Hit, PreparedScene};
 use crate::scene::Scene;
 pub use field::Charts;
-use field::{Field, Tiles, chart_bilinear};
+use field::{Field, Tiles};
 use guide::{Cells, Guide};
-pub use points::{Openness, TexelPoints};
+pub use points::{GatherPoint, Openness, TexelPoints};
 use sampled::final_gather_sampled;
 pub use sampled::{Distribution, SamplingStats};
+use strata::shuffled_strata;
+pub use strata::{spread_point, strata_side};
 
 /// The propagated light field the gather reads.
 pub struct Converged<'a> {
@@ -141,9 +153,9 @@ impl Gatherer<'_> {
         }
         let strata = shuffled_strata(rays, &mut rng);
         let mut sum = Vec3::ZERO;
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            sum += self.gather_ray(p, n, u);
+            sum += self.gather_ray(q, n, u);
         }
         Some(sum * (std::f32::consts::PI / points.len() as f32))
     }
@@ -165,9 +177,9 @@ impl Gatherer<'_> {
             radiance: Box::new([Vec3::ZERO; guide::CELLS]),
             luminance: Cells::default(),
         };
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let l = self.gather_ray(p, n, u);
+            let l = self.gather_ray(q, n, u);
             out.radiance[guide::cell_of(u)] += l;
             out.luminance.add(u, luminance(l));
         }
@@ -183,10 +195,12 @@ impl Gatherer<'_> {
         let strata = shuffled_strata(rays, &mut rng);
         let mut cells = Cells::default();
         let mut any = false;
-        for (k, &p) in points.iter().enumerate() {
+        for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
-            if through::ray_transmittance(self.ps, offset_ray_origin(p, n), dir) != Vec3::ZERO {
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+            if !below(q, n, dir)
+                && through::ray_transmittance(self.ps, offset_ray_origin(q.p, n), dir) != Vec3::ZERO
+            {
                 cells.add(u, 1.0);
                 any = true;
             }
@@ -194,13 +208,17 @@ impl Gatherer<'_> {
         any.then_some(cells)
     }
 
-    /// The radiance of the field seen from `p` (normal `n`) along square point `u`; a ray that
-    /// leaves the scene brings nothing (the sky is the direct part).
-    fn gather_ray(&self, p: Vec3, n: Vec3, u: Vec2) -> Vec3 {
-        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+    /// The radiance of the field seen from point `q` (geometric normal `n`) along square point
+    /// `u` about its shading normal; a ray that leaves the scene brings nothing (the sky is
+    /// the direct part), nor one below the geometric surface.
+    fn gather_ray(&self, q: GatherPoint, n: Vec3, u: Vec2) -> Vec3 {
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+        if below(q, n, dir) {
+            return Vec3::ZERO;
+        }
         // Through panes: each sends back what it reflects (`through`).
         let mut sum = Vec3::ZERO;
-        let traced = through::trace(self.ps, offset_ray_origin(p, n), dir, &mut |h, thr| {
+        let traced = through::trace(self.ps, offset_ray_origin(q.p, n), dir, &mut |h, thr| {
             sum += thr * self.field_radiance(dir, h)
         });
         if traced.hit.is_hit() {
@@ -252,7 +270,7 @@ impl Gatherer<'_> {
         if !points.is_empty() {
             let strata = shuffled_strata(n_u, &mut rng);
             for k in 0..n_b as usize {
-                let p = points[k % points.len()];
+                let q = points[k % points.len()];
                 let u = match guide {
                     Some(g) if k >= n_u as usize => {
                         let v = ((k - n_u as usize) as f32 + rng.next_f32()) / n_g as f32;
@@ -260,7 +278,7 @@ impl Gatherer<'_> {
                     }
                     _ => strata.point(k, &mut rng),
                 };
-                let l = self.gather_ray(p, n, u);
+                let l = self.gather_ray(q, n, u);
                 let v = l * (std::f32::consts::PI / mix(guide::cell_of(u)));
                 sum += v;
                 moments.add(luminance(v) * total);
@@ -279,7 +297,7 @@ impl Gatherer<'_> {
     }
 
     /// Direct irradiance of texel `t`: emitters by light samples and cosine rays combined with
-    /// the power heuristic, suns by shadow rays, the sky by the cosine rays; `None` when the
+    /// the power heuristic, suns, point and spot lights by shadow rays, the sky by the cosine rays; `None` when the
     /// texel has no open point.
     fn direct(&self, pts: &TexelPoints, t: usize, gp: &GatherParams) -> Option<Vec3> {
         self.direct_texel(pts, t, gp, None, 0.0).map(|d| d.e)
@@ -338,7 +356,8 @@ impl Gatherer<'_> {
             // the point strata).
             let strata = shuffled_strata(n_l, &mut rng);
             for k in 0..n_l as usize {
-                let p = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
+                let q = points[spread_point(k, n_l as usize, points.len(), &mut rng)];
+                let p = q.p;
                 let u = strata.point(k, &mut rng);
                 let (e, u) = lights.pick_emitter_remapped(u);
                 let tri = &self.ps.bvh.triangles[e.tri as usize];
@@ -349,12 +368,12 @@ impl Gatherer<'_> {
                 let to = x - p;
                 let d2 = to.length_squared();
                 let wi = to / d2.sqrt();
-                let (cos_r, cos_l) = (n.dot(wi), -wi.dot(nl));
+                let (cos_r, cos_l) = (q.n.dot(wi), -wi.dot(nl));
                 let mut value = Vec3::ZERO;
-                if cos_r > 0.0 && cos_l > 0.0 {
+                if cos_r > 0.0 && cos_l > 0.0 && !below(q, n, wi) {
                     let pdf_l = e.pdf / e.area * d2 / cos_l;
                     let m =
-                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, n)));
+                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, q.n)));
                     let pdf_b = m * cos_r * std::f32::consts::FRAC_1_PI;
                     let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
                     let origin = offset_ray_origin(p, n);
@@ -377,7 +396,7 @@ impl Gatherer<'_> {
             // against the light samples.
             let strata = shuffled_strata(n_u, &mut rng);
             for k in 0..n_b as usize {
-                let p = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
+                let q = points[spread_point(k, n_b as usize, points.len(), &mut rng)];
                 let u = match guide {
                     Some(g) if k >= n_u as usize => {
                         let v = ((k - n_u as usize) as f32 + rng.next_f32()) / (n_b - n_u) as f32;
@@ -386,30 +405,32 @@ impl Gatherer<'_> {
                     _ => strata.point(k, &mut rng),
                 };
                 let m = guide::mixture(guide, n_u, n_b, guide::cell_of(u));
-                let value = self.direct_ray(p, n, u, m, fl, fb);
+                let value = self.direct_ray(q, n, u, m, fl, fb);
                 sum += value;
                 m_b.add(luminance(value) * fb);
             }
             rays += n_l + n_b;
-            // Suns: one shadow ray per point.
-            if !lights.suns.is_empty() {
+            // Delta lights (suns, point and spot lights): one shadow ray per point and light.
+            if !lights.delta.is_empty() {
                 let mut sun = Vec3::ZERO;
-                for &p in &points {
-                    let origin = offset_ray_origin(p, n);
+                for &q in &points {
+                    let origin = offset_ray_origin(q.p, n);
                     let mut value = Vec3::ZERO;
-                    for s in &lights.suns {
-                        let cos = n.dot(s.to_sun);
-                        if cos > 0.0 {
-                            let pass = through::ray_transmittance(self.ps, origin, s.to_sun);
+                    for s in &lights.delta {
+                        let inc = s.incident(q.p);
+                        let cos = q.n.dot(inc.wi);
+                        if cos > 0.0 && !below(q, n, inc.wi) {
+                            let pass =
+                                through::shadow_transmittance(self.ps, &s.shadow_ray(origin, &inc));
                             if pass != Vec3::ZERO {
-                                value += s.irradiance * cos * pass;
+                                value += inc.irradiance * cos * pass;
                             }
                         }
                     }
                     sun += value;
                     m_s.add(luminance(value));
                 }
-                rays += (points.len() * lights.suns.len()) as u32;
+                rays += (points.len() * lights.delta.len()) as u32;
                 sum += sun / points.len() as f32;
             }
             total += sum;
@@ -430,14 +451,18 @@ impl Gatherer<'_> {
         })
     }
 
-    /// What one ray of the direct estimator from `p` (normal `n`) at square point `u` adds:
-    /// the sky if it leaves the scene, an emitter's front weighted against the light samples,
-    /// with the rays' density `m` relative to cosine sampling.
-    fn direct_ray(&self, p: Vec3, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
+    /// What one ray of the direct estimator from point `q` (geometric normal `n`) at square
+    /// point `u` about its shading normal adds: the sky if it leaves the scene, an emitter's
+    /// front weighted against the light samples, with the rays' density `m` relative to cosine
+    /// sampling; nothing below the geometric surface.
+    fn direct_ray(&self, q: GatherPoint, n: Vec3, u: Vec2, m: f32, fl: f32, fb: f32) -> Vec3 {
         let lights = &self.ps.lights;
-        let dir = sampling::to_world(sampling::cosine_hemisphere(u), n);
+        let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+        if below(q, n, dir) {
+            return Vec3::ZERO;
+        }
         // Through panes, attenuated (`hit.t` the whole distance, for the light samples' pdf).
-        let traced = through::trace(self.ps, offset_ray_origin(p, n), dir, &mut |_, _| {});
+        let traced = through::trace(self.ps, offset_ray_origin(q.p, n), dir, &mut |_, _| {});
         let (hit, pass) = (traced.hit, traced.throughput);
         if !hit.is_hit() {
             return self.sky * (std::f32::consts::PI / (fb * m)) * pass;
@@ -451,7 +476,7 @@ impl Gatherer<'_> {
         if cos_l <= 0.0 {
             return Vec3::ZERO; // the back of an emitter
         }
-        let pdf_b = m * n.dot(dir) * std::f32::consts::FRAC_1_PI;
+        let pdf_b = m * q.n.dot(dir) * std::f32::consts::FRAC_1_PI;
         let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
         let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = self.ps.emission(hit.tri, hit.u, hit.v);
@@ -480,6 +505,13 @@ pub struct DirectTexel {
     pub e: Vec3,
     pub variance: f32,
     pub rays: u32,
+}
+
+/// Whether direction `dir` from a point `q` with a shading normal of its own lies below the
+/// geometric surface (unit normal `n` of the lit side): such a ray would enter the solid
+/// behind the face, and brings nothing. Never for a flat point (its rays are drawn about `n`).
+pub fn below(q: GatherPoint, n: Vec3, dir: Vec3) -> bool {
+    q.n != n && dir.dot(n) <= 0.0
 }
 
 /// Rec. 709 luminance.
@@ -511,56 +543,6 @@ impl Moments {
         let n = f64::from(self.n);
         let mean = self.sum / n;
         (((self.sum2 / n - mean * mean).max(0.0)) * n / (n - 1.0) / n) as f32
-    }
-}
-
-/// The point that sample `k` of `n` starts from when a texel has `len` points: `k % len` when
-/// the samples are as many as the points or more; otherwise a random one of the points in the
-/// `k`-th of `n` equal runs of the point list (point `(k·len + j) / n`, j uniform in 0..len,
-/// one draw), so that every point is equally likely and the samples stay spread over the
-/// texel's strata. The points come in stratum order, so the first `n` of them would cover only
-/// the first rows of the texel: a texel next to a steep source (the 1 cm emitting sides of a
-/// lamp flush with the ceiling) saw it from one edge only, too bright or too dark by the edge's
-/// orientation (cornell-suzanne's ceiling: 3.2× and 0.29× along two sides of its lamp;
-/// `docs/GATHER.md`). The GPU gather draws the same (`spread_point` in
-/// `shaders/gather_texels.wgsl`).
-pub fn spread_point(k: usize, n: usize, len: usize, rng: &mut Rng) -> usize {
-    if n >= len {
-        return k % len;
-    }
-    let j = rng.next_u32() as usize % len;
-    (k * len + j) / n
-}
-
-/// A g × g grid of 2-D strata over [0, 1)² in a random order (so that a texel's point strata and
-/// its direction or light strata are paired at random).
-struct Strata {
-    g: u32,
-    order: Vec<u32>,
-}
-
-/// Side g of the g × g strata that hold `count` samples: ⌈√count⌉ (1 for none), computed as
-/// the CPU does it (the GPU gather is handed these values rather than taking its own root).
-pub fn strata_side(count: u32) -> u32 {
-    (count.max(1) as f32).sqrt().ceil() as u32
-}
-
-fn shuffled_strata(count: u32, rng: &mut Rng) -> Strata {
-    let g = strata_side(count);
-    let mut order: Vec<u32> = (0..g * g).collect();
-    for i in (1..order.len()).rev() {
-        let j = (rng.next_u32() as usize) % (i + 1);
-        order.swap(i, j);
-    }
-    Strata { g, order }
-}
-
-impl Strata {
-    /// A jittered point of the stratum paired with sample `k`.
-    fn point(&self, k: usize, rng: &mut Rng) -> Vec2 {
-        let s = self.order[k % self.order.len()];
-        let j = rng.next_2d();
-        Vec2::new((s % self.g) as f32 + j.x, (s / self.g) as f32 + j.y) / self.g as f32
     }
 }
 
@@ -682,7 +664,7 @@ pub fn final_gather(
         let dir = crate::par::map(grids.direct.atlas.texel_count(), threads, CHUNK, |t| {
             g.direct(&pts, t, gp)
         });
-        return Ok(assemble(field, grids, &ind, &dir));
+        return Ok(assemble(&ps, field, grids, &ind, &dir, threads));
     }
     drop(g);
     final_gather_sampled(scene, &ps, field, gp, grids, threads)
@@ -690,19 +672,23 @@ pub fn final_gather(
 
 /// The gathered atlas from the texel estimates: `indirect` per texel of the indirect grid,
 /// `direct` per texel of the stored atlas (`None`: no open point). The indirect grid is
-/// dilated over its texels without a value and read bilinearly at each stored texel's centre;
-/// the sum is dilated over the stored atlas' texels without a value.
+/// dilated over its texels without a value and read at each stored texel's centre bilinearly,
+/// except that the read stops at contacts as the field's does ([`Field::irradiance_at`]): an
+/// indirect texel is coarser than a wall is thick, and one straddling a wall's foot holds light
+/// from both of its sides (a ceiling over a window wall read the sky-lit eaves). The sum is
+/// dilated over the stored atlas' texels without a value. Contacts are found on `threads`
+/// workers (0 = all cores).
 pub fn assemble(
+    ps: &PreparedScene,
     field: &Converged,
     grids: Grids,
     indirect: &[Option<Vec3>],
     direct: &[Option<Vec3>],
+    threads: usize,
 ) -> Gathered {
     let Grids {
         indirect: coarse,
-        direct: Grid {
-            atlas, tex_face, ..
-        },
+        direct: fine,
     } = grids;
     let coarse = coarse.atlas;
     let filled: Vec<bool> = indirect.iter().map(Option::is_some).collect();
@@ -711,18 +697,36 @@ pub fn assemble(
         .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
         .collect();
     crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
-    // Direct light plus the indirect grid read at each texel.
-    let dir: Vec<Option<(Vec3, Vec3)>> = direct
-        .iter()
-        .enumerate()
-        .map(|(t, d)| {
-            let direct = (*d)?;
-            let fi = tex_face[t] as usize;
-            let side = (t as u32 - atlas.faces[fi].texel_base) / atlas.faces[fi].texels_per_side();
-            let p = Vec4::from(atlas.texel_center[t]).truncate();
-            Some((direct, chart_bilinear(&coarse.faces[fi], &e_ind, side, p)))
-        })
-        .collect();
+    let coarse_field = Field {
+        scene: ps.scene,
+        atlas: &coarse,
+        irradiance: e_ind,
+        tiles: None,
+        direct: None,
+        contacts: field::Contacts::new(&ps.bvh, ps.scene, &coarse, threads),
+    };
+    // Direct light plus the indirect grid read at each texel: at its covered centroid where
+    // the coarse quad there is clear, else at the centroid of its open part.
+    let fine_pts = fine.points(ps.scene, &ps.bvh);
+    let dir: Vec<Option<(Vec3, Vec3)>> = crate::par::map(direct.len(), threads, 1024, |t| {
+        let direct = direct[t]?;
+        let fi = fine.tex_face[t] as usize;
+        let f = &fine.atlas.faces[fi];
+        let side = (t as u32 - f.texel_base) / f.texels_per_side();
+        let mut p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+        if !coarse_field.clear_at(fi as u32, side, p)
+            && let Some(w) = fine_pts.open_centroid(t)
+        {
+            p = ps.scene.to_vlf.apply(w);
+        }
+        let world = ps.scene.to_vlf.inverse(p);
+        Some((
+            direct,
+            coarse_field.irradiance_on(fi as u32, side, p, world),
+        ))
+    });
+    drop(coarse_field);
+    let Grid { atlas, .. } = fine;
     let mut stats = GatherStats {
         texels: atlas.texel_count(),
         covered_texels: atlas.texel_area.iter().filter(|a| **a > 0.0).count(),

@@ -8,7 +8,12 @@
 //! sample points with short rays and drop the enclosed ones; so does [`Openness`]: a point is
 //! closed when a probe along its normal hits anything within `r_close` (a gap thinner than
 //! about half a texel, which the atlas cannot resolve anyway), or when it lies inside a closed
-//! solid (probes along the normal and two tilted directions all reach back faces).
+//! solid (of three probes, along the normal and two tilted directions, most reach back faces).
+//!
+//! Each point carries the shading normal its rays are drawn about ([`GatherPoint::n`]): the
+//! interpolated vertex normal where its triangle is smooth, the face's normal elsewhere. The
+//! openness probes and the rays' origins stay with the face's (geometric) normal: they are
+//! about where the surface is, not how it shades.
 
 use glam::{Vec2, Vec3};
 
@@ -37,25 +42,36 @@ impl Openness<'_> {
         if self.closes(origin, n) {
             return false;
         }
-        // Inside a closed solid every direction reaches a back face; one open direction or
-        // front face suffices to be outside (robust to a single surface with flipped winding).
+        // Inside a closed solid every direction reaches a back face; outside, most find a
+        // front face or nothing. A majority of three decides: one back face (a single surface
+        // with flipped winding) does not close a point, and one front face does not open it
+        // (inside a wall built of touching boxes, a ray crossing the shared face meets the
+        // neighbouring box's front face first).
         let (t, b) = sampling::basis(n);
         let tilt = |a: Vec3| (n * 0.5 + a * 0.866_025_4).normalize();
+        let (mut open, mut closed) = (0, 0);
         for d in [n, tilt(t), tilt(-t * 0.5 + b * 0.866_025_4)] {
             let hit = self.bvh.closest_hit(&Ray::new(origin, d, f32::INFINITY));
-            if !hit.is_hit() {
-                return true;
-            }
-            let tri = &self.bvh.triangles[hit.tri as usize];
-            if self.panes.get(tri.material as usize) == Some(&true) {
-                return true; // a pane: light passes
-            }
-            let [a, b, c] = tri.corners();
-            if (b - a).cross(c - a).dot(d) <= 0.0 {
-                return true; // a front face
+            let front = !hit.is_hit() || {
+                let tri = &self.bvh.triangles[hit.tri as usize];
+                let [a, b, c] = tri.corners();
+                // A pane passes light: it counts as open.
+                self.panes.get(tri.material as usize) == Some(&true)
+                    || (b - a).cross(c - a).dot(d) <= 0.0
+            };
+            if front {
+                open += 1;
+                if open == 2 {
+                    return true;
+                }
+            } else {
+                closed += 1;
+                if closed == 2 {
+                    return false;
+                }
             }
         }
-        false
+        unreachable!("three directions reach a majority")
     }
 }
 
@@ -91,6 +107,14 @@ impl Openness<'_> {
         }
         true
     }
+}
+
+/// A sample point of a texel (world space) and the unit shading normal of the texel's lit side
+/// there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GatherPoint {
+    pub p: Vec3,
+    pub n: Vec3,
 }
 
 /// Stratified open points of the texels of one atlas.
@@ -159,12 +183,47 @@ impl TexelPoints<'_> {
         }
     }
 
+    /// Where texel `t` is read from as a whole (world): the centroid of its covered part when
+    /// that is all open, the mean of the open ones among the centres of a 4 × 4 grid over the
+    /// texel square (on the face) when part of it is closed, `None` when it is enclosed (or no
+    /// grid point is open). Deterministic: no random draws. A texel straddling a wall's foot
+    /// so reads the light of its open side, not of a centroid under the wall.
+    pub fn open_centroid(&self, t: usize) -> Option<Vec3> {
+        let (fi, _, corner) = self.locate(t);
+        let n = self.normal(t);
+        let centroid = self
+            .xf
+            .inverse(glam::Vec4::from(self.atlas.texel_center[t]).truncate());
+        if self.atlas.texel_area[t] <= 0.0 {
+            return None;
+        }
+        match self.classify(fi, corner, n) {
+            Some(true) => return Some(centroid),
+            Some(false) => return None,
+            None => {}
+        }
+        const G: u32 = 4;
+        let (mut sum, mut count) = (Vec3::ZERO, 0u32);
+        for k in 0..G * G {
+            let c = corner + (Vec2::new((k % G) as f32, (k / G) as f32) + 0.5) / G as f32;
+            if !self.charts.inside(fi, c) {
+                continue;
+            }
+            let p = self.world(fi, c);
+            if self.open.is_open(p, n) {
+                sum += p;
+                count += 1;
+            }
+        }
+        (count > 0).then(|| sum / count as f32)
+    }
+
     /// Up to `count` stratified world points on texel `t` (its face, its lit side) where the
-    /// texel is open, appended to `out`: stratum `k` of a g × g grid over the texel square
-    /// (g = ⌈√count⌉) holds point `k`, redrawn within the stratum when off the face or closed,
-    /// then anywhere in the texel; points that find no open spot are dropped. Returns the lit
-    /// side's unit normal.
-    pub fn sample(&self, t: usize, count: u32, rng: &mut Rng, out: &mut Vec<Vec3>) -> Vec3 {
+    /// texel is open, appended to `out` with their shading normals: stratum `k` of a g × g
+    /// grid over the texel square (g = ⌈√count⌉) holds point `k`, redrawn within the stratum
+    /// when off the face or closed, then anywhere in the texel; points that find no open spot
+    /// are dropped. Returns the lit side's unit (geometric) normal.
+    pub fn sample(&self, t: usize, count: u32, rng: &mut Rng, out: &mut Vec<GatherPoint>) -> Vec3 {
         let (fi, side, corner) = self.locate(t);
         let n = {
             let n = self.atlas.faces[fi].normal();
@@ -190,24 +249,31 @@ impl TexelPoints<'_> {
                 } else {
                     corner + j
                 };
-                if !self.charts.inside(fi, c) {
+                let Some(tri) = self.charts.locate(fi, c) else {
                     continue;
-                }
+                };
                 let p = self.world(fi, c);
                 if test_each && !self.open.is_open(p, n) {
                     continue;
                 }
-                out.push(p);
+                out.push(GatherPoint {
+                    p,
+                    n: self.charts.shading_normal(fi, tri, c, n),
+                });
                 break;
             }
         }
         if out.len() == first {
             // A sliver of the face that no draw found: its covered part's centroid.
-            let p = self
-                .xf
-                .inverse(glam::Vec4::from(self.atlas.texel_center[t]).truncate());
+            let q = glam::Vec4::from(self.atlas.texel_center[t]).truncate();
+            let p = self.xf.inverse(q);
             if !test_each || self.open.is_open(p, n) {
-                out.push(p);
+                let c = super::field::chart_coords(&self.atlas.faces[fi], q);
+                let ns = match self.charts.locate(fi, c) {
+                    Some(tri) => self.charts.shading_normal(fi, tri, c, n),
+                    None => n,
+                };
+                out.push(GatherPoint { p, n: ns });
             }
         }
         n

@@ -136,7 +136,7 @@ pub(super) fn final_gather_sampled(
     let ind_e: Vec<Option<Vec3>> = ind.iter().map(|e| e.as_ref().map(|e| e.e)).collect();
     let dir_e: Vec<Option<Vec3>> = dir.iter().map(|d| d.as_ref().map(|d| d.e)).collect();
     let fine_texel = grids.direct.texel_size;
-    let mut gathered = assemble(field, grids, &ind_e, &dir_e);
+    let mut gathered = assemble(ps, field, grids, &ind_e, &dir_e, threads);
     gathered.stats.sampling = Some(SamplingStats::of(&dir, &var, &gathered.irradiance));
     if gp.denoise {
         // The stored atlas' grid again (the same atlas, deterministic), for its charts.

@@ -158,3 +158,15 @@ impl Traced {
         }
     }
 }
+
+/// What a shadow ray towards a delta light passes ([`crate::pathtrace::DeltaLight::shadow_ray`]):
+/// [`ray_transmittance`] towards a sun (no end), [`segment_transmittance`] up to a point or
+/// spot light.
+pub fn shadow_transmittance(ps: &PreparedScene, ray: &Ray) -> Vec3 {
+    let (origin, d) = (Vec3::from(ray.origin), Vec3::from(ray.dir));
+    if ray.tmax.is_finite() {
+        segment_transmittance(ps, origin, d * ray.tmax)
+    } else {
+        ray_transmittance(ps, origin, d)
+    }
+}

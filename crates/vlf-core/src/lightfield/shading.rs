@@ -12,6 +12,17 @@
 //! corners, and the textures ([`SurfaceTexture`] and their texels). Lookups are bilinear with
 //! the sampler's wrap modes and no mipmaps (`shared/reference/README.md`).
 //!
+//! Where the scene has them, three more per-corner attributes (each `None` when no triangle
+//! needs it, so light fields of scenes without them are unchanged):
+//!
+//! * [`Shading::colors`]: `COLOR_0`, which multiplies ρ_d (and the metal lobe's C) per pixel;
+//! * [`Shading::uvs1`]: `TEXCOORD_1`, read by the texture slots whose material names set 1
+//!   ([`SurfaceMaterial::base_color_texcoord`], [`SurfaceMaterial::emissive_texcoord`]);
+//! * [`Shading::normals`]: the shading normals, zero vectors at the corners of flat
+//!   triangles. The atlas already holds the irradiance about them (the final gather gathers
+//!   about the interpolated normal); the renderer needs them only where the normal shapes
+//!   the light per pixel: mirrors and glossy lobes reflect about the interpolated normal.
+//!
 //! **Texels are f16 RGB** (a [`Radiance`] in [`RadianceEncoding::RgbF16`]: 6 bytes per texel
 //! in memory and in the file, `Rgba16Float` on the GPU like the atlas), not the importer's f32
 //! RGBA (16 bytes):
@@ -69,6 +80,10 @@ pub struct SurfaceMaterial {
     pub pane: f32,
     /// The pane's index of refraction.
     pub ior: f32,
+    /// The texture coordinate set (0 or 1) the base-colour texture is read with.
+    pub base_color_texcoord: u32,
+    /// The texture coordinate set (0 or 1) the emissive texture is read with.
+    pub emissive_texcoord: u32,
 }
 
 impl SurfaceMaterial {
@@ -94,6 +109,8 @@ impl SurfaceMaterial {
             alpha_nearest: false,
             pane: m.pane_weight(),
             ior: m.transparency.ior,
+            base_color_texcoord: m.base_color_texture.map_or(0, |t| t.texcoord.min(1)),
+            emissive_texcoord: m.emissive_texture.map_or(0, |t| t.texcoord.min(1)),
         }
     }
 
@@ -112,7 +129,15 @@ impl SurfaceMaterial {
             alpha_nearest: false,
             pane: 0.0,
             ior: crate::scene::DEFAULT_IOR,
+            base_color_texcoord: 0,
+            emissive_texcoord: 0,
         }
+    }
+
+    /// Whether a texture of the material reads `TEXCOORD_1`.
+    pub fn uses_texcoord1(&self) -> bool {
+        (self.base_color_texture != NO_TEXTURE && self.base_color_texcoord == 1)
+            || (self.emissive_texture != NO_TEXTURE && self.emissive_texcoord == 1)
     }
 
     /// Whether the material cuts holes where its coverage is below [`alpha_cutoff`](Self::alpha_cutoff).
@@ -150,6 +175,16 @@ pub struct Shading {
     /// `TEXCOORD_0` at the three corners of each triangle, in the order of
     /// [`LightField::triangles`](super::LightField::triangles) (zeros where the mesh has none).
     pub uvs: Vec<[[f32; 2]; 3]>,
+    /// `TEXCOORD_1` at the three corners of each triangle (zeros where the mesh has none);
+    /// `None` unless some material reads a texture with it.
+    pub uvs1: Option<Vec<[[f32; 2]; 3]>>,
+    /// Unit shading normals at the three corners of each triangle (VLF directions equal world
+    /// ones: the VLF transform is a similarity), zero vectors at the corners of flat
+    /// triangles; `None` when every triangle is flat.
+    pub normals: Option<Vec<[[f32; 3]; 3]>>,
+    /// `COLOR_0` at the three corners of each triangle (linear RGB in [0, 1], white where the
+    /// mesh has none); `None` when no triangle has vertex colours.
+    pub colors: Option<Vec<[[f32; 3]; 3]>>,
     pub textures: Vec<SurfaceTexture>,
     /// Linear RGB of every texture's texels, f16: the textures one after another in
     /// `textures` order, each row-major with row 0 the top of the image (glTF uv (0, 0) is its
@@ -175,6 +210,9 @@ impl Shading {
         Shading {
             materials: Vec::new(),
             uvs: Vec::new(),
+            uvs1: None,
+            normals: None,
+            colors: None,
             textures: Vec::new(),
             texels: Radiance::new(RadianceEncoding::RgbF16),
             alpha: Vec::new(),
@@ -240,9 +278,33 @@ impl Shading {
         } else {
             Vec::new()
         };
+        let finite2 = |uv: Vec2| if uv.is_finite() { uv } else { Vec2::ZERO }.to_array();
+        let uvs1 = materials
+            .iter()
+            .any(SurfaceMaterial::uses_texcoord1)
+            .then(|| {
+                scene
+                    .triangles
+                    .iter()
+                    .map(|t| t.uv_set(1).map(finite2))
+                    .collect()
+            });
+        let normals = scene.has_smooth_normals().then(|| {
+            (scene.triangles.iter())
+                .map(|t| t.normals.map_or([[0.0; 3]; 3], |n| n.map(|v| v.to_array())))
+                .collect()
+        });
+        let colors = scene.has_vertex_colors().then(|| {
+            (scene.triangles.iter())
+                .map(|t| t.colors.map_or([[1.0; 3]; 3], |c| c.map(|v| v.to_array())))
+                .collect()
+        });
         Shading {
             materials,
             uvs,
+            uvs1,
+            normals,
+            colors,
             textures: scene
                 .textures
                 .iter()
@@ -272,10 +334,19 @@ impl Shading {
             .collect()
     }
 
-    /// Bytes of materials, uvs and textures in memory.
+    /// Bytes of materials, uvs, per-corner attributes and textures in memory.
     pub fn byte_len(&self) -> usize {
         size_of_val(self.materials.as_slice())
             + size_of_val(self.uvs.as_slice())
+            + self.uvs1.as_ref().map_or(0, |v| size_of_val(v.as_slice()))
+            + self
+                .normals
+                .as_ref()
+                .map_or(0, |v| size_of_val(v.as_slice()))
+            + self
+                .colors
+                .as_ref()
+                .map_or(0, |v| size_of_val(v.as_slice()))
             + size_of_val(self.textures.as_slice())
             + self.texels.byte_len()
             + size_of_val(self.alpha.as_slice())
@@ -284,6 +355,47 @@ impl Shading {
     /// Whether a material masks ([`SurfaceMaterial::masks`]).
     pub fn has_masks(&self) -> bool {
         self.materials.iter().any(SurfaceMaterial::masks)
+    }
+
+    /// The corner texture coordinates of set `set` of triangle `tri` (a missing set 1 reads
+    /// 0).
+    pub fn corner_uvs(&self, tri: usize, set: u32) -> [Vec2; 3] {
+        let uv = match (set, &self.uvs1) {
+            (1, Some(u1)) => u1[tri],
+            (1, None) => [[0.0; 2]; 3],
+            _ => self.uvs[tri],
+        };
+        uv.map(Vec2::from)
+    }
+
+    /// Texture coordinates of set `set` of triangle `tri` at barycentric weights `b` (of
+    /// corners 0, 1, 2), in f32 as the renderer interpolates them.
+    pub fn uv_at(&self, tri: usize, set: u32, b: [f32; 3]) -> Vec2 {
+        let uv = self.corner_uvs(tri, set);
+        uv[0] * b[0] + uv[1] * b[1] + uv[2] * b[2]
+    }
+
+    /// The vertex colour of triangle `tri` at barycentric weights `b`: 1 without colours.
+    pub fn color_at(&self, tri: usize, b: [f32; 3]) -> Vec3 {
+        match &self.colors {
+            Some(c) => {
+                let c = c[tri].map(Vec3::from);
+                c[0] * b[0] + c[1] * b[1] + c[2] * b[2]
+            }
+            None => Vec3::ONE,
+        }
+    }
+
+    /// The interpolated shading normal of triangle `tri` at barycentric weights `b`, not
+    /// normalised; zero for a flat triangle (the face's normal shades it).
+    pub fn normal_at(&self, tri: usize, b: [f32; 3]) -> Vec3 {
+        match &self.normals {
+            Some(n) => {
+                let n = n[tri].map(Vec3::from);
+                n[0] * b[0] + n[1] * b[1] + n[2] * b[2]
+            }
+            None => Vec3::ZERO,
+        }
     }
 
     /// Checks that the parts fit together for a light field of `triangles` triangles: one uv
@@ -304,6 +416,43 @@ impl Shading {
             .position(|t| !t.iter().flatten().all(|x| x.is_finite()))
         {
             return bad(format!("uvs of triangle {i}"), "non-finite value".into());
+        }
+        let per_triangle = |name: &str, len: Option<usize>| match len {
+            Some(n) if n != triangles => Err(InvalidShading {
+                element: name.into(),
+                reason: format!("{n} corner triples for {triangles} triangles"),
+            }),
+            _ => Ok(()),
+        };
+        per_triangle("uvs1", self.uvs1.as_ref().map(Vec::len))?;
+        per_triangle("normals", self.normals.as_ref().map(Vec::len))?;
+        per_triangle("colors", self.colors.as_ref().map(Vec::len))?;
+        if let Some(i) =
+            (self.uvs1.iter().flatten()).position(|t| !t.iter().flatten().all(|x| x.is_finite()))
+        {
+            return bad(format!("uvs1 of triangle {i}"), "non-finite value".into());
+        }
+        if let Some(i) = self.normals.iter().flatten().position(|t| {
+            !t.iter().all(|n| {
+                let n = Vec3::from(*n);
+                n.is_finite() && (n == Vec3::ZERO || (n.length() - 1.0).abs() < 1e-3)
+            })
+        }) {
+            return bad(
+                format!("normals of triangle {i}"),
+                "not unit length, zero or finite".into(),
+            );
+        }
+        if let Some(i) = self
+            .colors
+            .iter()
+            .flatten()
+            .position(|t| !t.iter().flatten().all(|x| (0.0..=1.0).contains(x)))
+        {
+            return bad(
+                format!("colors of triangle {i}"),
+                "a component outside [0, 1]".into(),
+            );
         }
         let n_tex = self.textures.len();
         for (i, m) in self.materials.iter().enumerate() {
@@ -350,6 +499,9 @@ impl Shading {
             }
             if !(m.ior.is_finite() && m.ior >= 1.0) {
                 return bad(el(), format!("index of refraction {} is below 1", m.ior));
+            }
+            if m.base_color_texcoord > 1 || m.emissive_texcoord > 1 {
+                return bad(el(), "texture coordinate sets must be 0 or 1".into());
             }
             for (slot, t) in [
                 ("base-colour", m.base_color_texture),

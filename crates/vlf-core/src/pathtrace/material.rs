@@ -29,6 +29,9 @@ pub struct SurfaceMaterial {
     pub emission: Vec3,
     /// Index into `Scene::textures` of the emissive texture.
     pub emissive_texture: Option<u32>,
+    /// The texture coordinate sets (0 or 1) of the base-colour and emissive textures.
+    pub base_texcoord: u32,
+    pub emissive_texcoord: u32,
     /// Weight of the Lambertian lobe; the metal lobe has `1 − w_diffuse − w_pane`.
     pub w_diffuse: f32,
     /// GGX α of the metal lobe; 0 = perfect mirror.
@@ -50,6 +53,8 @@ impl SurfaceMaterial {
             base_texture: m.base_color_texture.map(|t| t.index),
             emission: m.emission,
             emissive_texture: m.emissive_texture.map(|t| t.index),
+            base_texcoord: m.base_color_texture.map_or(0, |t| t.texcoord.min(1)),
+            emissive_texcoord: m.emissive_texture.map_or(0, |t| t.texcoord.min(1)),
             w_diffuse: non_metal - w_pane,
             alpha,
             w_pane,
@@ -299,6 +304,8 @@ mod tests {
             base_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
+            base_texcoord: 0,
+            emissive_texcoord: 0,
             w_diffuse: 0.4,
             alpha: 0.2,
             w_pane: 0.0,

@@ -4,16 +4,29 @@
 //!
 //! * **Geometry**: a binned-SAH [`Bvh`] over the scene's world-space triangles (32-byte nodes,
 //!   depth-first layout, stack traversal) with the watertight ray–triangle test of Woop et al.
-//!   and self-intersection-free ray origins ([`geometry`]). Faces are flat shaded.
+//!   and self-intersection-free ray origins ([`geometry`]).
+//! * **Shading normals** (a triangle's [`normals`](crate::scene::Triangle::normals), flat
+//!   where it has none): the BSDF is evaluated and sampled about the interpolated normal,
+//!   turned to the side the ray arrived at (the geometric normal decides the side, and
+//!   emission stays one-sided by winding). Rays leave from the geometric surface (offset along
+//!   its normal); a direction below the geometric surface (the shading normal's hemisphere
+//!   reaches under it) ends the path, and a light sample there counts nothing: the ray would
+//!   enter the solid the surface bounds. `--flat-normals` (`Scene::flatten_normals`) renders
+//!   every face flat, as the shared references other than lamp-room are.
+//! * **Vertex colours** multiply the base colour (the Lambertian albedo and the metal's C);
+//!   each texture is read with the texture coordinate set its slot names.
 //! * **Pixels**: the mean radiance over the pixel square (box filter): each sample picks a
 //!   uniform point of the pixel. Row 0 is the top. Pinhole camera, `yfov` vertical, aspect =
 //!   width / height.
 //! * **Materials**: [`material`] (Lambert / perfect mirror / GGX metal and their mix, from the
 //!   metallic and roughness factors; both sides reflect alike).
 //! * **Light**: emission `emissiveFactor × strength × texture` from the front (CCW) face only;
-//!   constant sky radiance for escaping rays; suns give irradiance `color × intensity`.
+//!   constant sky radiance for escaping rays; suns give irradiance `color × intensity`; point
+//!   and spot lights intensity `color × intensity` (irradiance I·cos θ/d², spot cones and
+//!   ranges as [`crate::scene::PunctualLight::attenuation`]), invisible to camera and BSDF rays.
 //! * **Estimator**: unidirectional path tracing with next-event estimation (one light sample per
-//!   vertex: an emissive triangle chosen ∝ power and sampled by area, or a sun), multiple
+//!   vertex: an emissive triangle chosen ∝ power and sampled by area, or a delta light — sun,
+//!   point or spot, chosen uniformly — by one shadow ray, without MIS), multiple
 //!   importance sampling with the power heuristic between light and BSDF sampling of emitters,
 //!   cosine sampling for Lambert, GGX visible-normal sampling for rough metal, the mirror as a
 //!   delta lobe, unlimited depth with Russian roulette from the fifth vertex on (unbiased).
@@ -289,7 +302,13 @@ impl<'a> PreparedScene<'a> {
         }
     }
 
-    fn uv_at(&self, tri: u32, b1: f32, b2: f32) -> Vec2 {
+    /// Texture coordinates of set `set` of leaf-order triangle `tri` at barycentrics
+    /// `(b1, b2)`.
+    fn uv_at(&self, tri: u32, set: u32, b1: f32, b2: f32) -> Vec2 {
+        if set == 1 {
+            let t = &self.bvh.triangles[tri as usize];
+            return self.scene.triangles[t.prim as usize].uv_at(1, b1, b2);
+        }
         let uv = &self.uvs[tri as usize];
         uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
     }
@@ -302,7 +321,33 @@ impl<'a> PreparedScene<'a> {
         if m.emission == Vec3::ZERO || self.bvh.masks().cuts_at(t.prim, b1, b2) {
             return Vec3::ZERO;
         }
-        m.emission * self.texture(m.emissive_texture, self.uv_at(tri, b1, b2))
+        m.emission
+            * self.texture(
+                m.emissive_texture,
+                self.uv_at(tri, m.emissive_texcoord, b1, b2),
+            )
+    }
+
+    /// The base colour C (factor × texture × vertex colour) of leaf-order triangle `tri` at
+    /// barycentrics `(b1, b2)`.
+    pub fn base_color(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
+        let t = &self.bvh.triangles[tri as usize];
+        let m = &self.materials[t.material as usize];
+        let st = &self.scene.triangles[t.prim as usize];
+        m.base_color
+            * self.texture(m.base_texture, self.uv_at(tri, m.base_texcoord, b1, b2))
+            * st.color_at(b1, b2)
+    }
+
+    /// The unit shading normal of leaf-order triangle `tri` at barycentrics `(b1, b2)` on the
+    /// side whose unit geometric normal is `n` (`n` itself for a flat triangle).
+    pub fn shading_normal(&self, tri: u32, b1: f32, b2: f32, n: Vec3) -> Vec3 {
+        let t = &self.bvh.triangles[tri as usize];
+        match self.scene.triangles[t.prim as usize].shading_normal_at(b1, b2) {
+            Some(m) if m.dot(n) < 0.0 => -m,
+            Some(m) => m,
+            None => n,
+        }
     }
 
     /// Radiance arriving at the camera along one path starting with `origin + t·dir`.
@@ -326,10 +371,9 @@ impl<'a> PreparedScene<'a> {
             let cos_d = d.dot(ng);
             let front = cos_d < 0.0;
             let m = &self.materials[tri.material as usize];
-            let uv = self.uv_at(hit.tri, hit.u, hit.v);
             // Emission (front face), MIS-weighted against light sampling.
             if front && m.emission != Vec3::ZERO {
-                let le = m.emission * self.texture(m.emissive_texture, uv);
+                let le = self.emission(hit.tri, hit.u, hit.v);
                 let w = if prev_delta {
                     1.0
                 } else {
@@ -338,18 +382,19 @@ impl<'a> PreparedScene<'a> {
                 };
                 l += beta * le * w;
             }
-            let n = if front { ng } else { -ng };
+            let ng = if front { ng } else { -ng };
+            let n = self.shading_normal(hit.tri, hit.u, hit.v, ng);
             let wo = -d;
             let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
-            let color = m.base_color * self.texture(m.base_texture, uv);
-            let origin = offset_ray_origin(p, n);
+            let color = self.base_color(hit.tri, hit.u, hit.v);
+            let origin = offset_ray_origin(p, ng);
             // Next-event estimation: one light sample.
             let u_class = rng.next_f32();
             let u_light = rng.next_f32();
             let u_point = rng.next_2d();
             if m.has_smooth_part() {
-                l +=
-                    beta * self.sample_light(m, color, p, n, wo, origin, u_class, u_light, u_point);
+                let at = Vertex { p, n, ng, origin };
+                l += beta * self.sample_light(m, color, &at, wo, u_class, u_light, u_point);
             }
             // Continue the path.
             let u_lobe = rng.next_f32();
@@ -357,6 +402,10 @@ impl<'a> PreparedScene<'a> {
             let Some(s) = material::sample(m, color, n, wo, u_lobe, u_dir) else {
                 break;
             };
+            // Below the geometric surface (a smooth vertex only): into the solid.
+            if n != ng && s.wi.dot(ng) <= 0.0 {
+                break;
+            }
             beta *= s.weight;
             // Through a pane the path goes on from the surface's other side.
             let origin = if s.transmitted {
@@ -382,21 +431,22 @@ impl<'a> PreparedScene<'a> {
         l
     }
 
-    /// One NEE sample at `p` (MIS-weighted against BSDF sampling), unoccluded contribution
-    /// already tested; to be multiplied by the path throughput.
+    /// One NEE sample at vertex `at` (MIS-weighted against BSDF sampling), unoccluded
+    /// contribution already tested; to be multiplied by the path throughput.
     #[allow(clippy::too_many_arguments)]
     fn sample_light(
         &self,
         m: &SurfaceMaterial,
         color: Vec3,
-        p: Vec3,
-        n: Vec3,
+        at: &Vertex,
         wo: Vec3,
-        origin: Vec3,
         u_class: f32,
         u_light: f32,
         u_point: Vec2,
     ) -> Vec3 {
+        let Vertex { p, n, ng, origin } = *at;
+        // A direction below the geometric surface (smooth vertices only) brings nothing.
+        let below = |wi: Vec3| n != ng && wi.dot(ng) <= 0.0;
         let lights = &self.lights;
         if u_class < lights.p_emitters {
             let e = lights.emitters[lights.pick_emitter(u_light)];
@@ -410,7 +460,7 @@ impl<'a> PreparedScene<'a> {
             let dist = dist2.sqrt();
             let wi = to / dist;
             let cos_l = -wi.dot(nl);
-            if cos_l <= 0.0 || n.dot(wi) <= 0.0 {
+            if cos_l <= 0.0 || n.dot(wi) <= 0.0 || below(wi) {
                 return Vec3::ZERO;
             }
             let (f, pdf_bsdf) = material::eval(m, color, n, wo, wi);
@@ -432,33 +482,41 @@ impl<'a> PreparedScene<'a> {
             } else {
                 contrib
             }
-        } else if !lights.suns.is_empty() {
-            let s = lights.suns[lights.pick_sun(u_light)];
-            let wi = s.to_sun;
-            let cos_i = n.dot(wi);
-            if cos_i <= 0.0 {
+        } else if !lights.delta.is_empty() {
+            // A delta light (sun, point or spot): no MIS, BSDF sampling never hits it.
+            let s = lights.delta[lights.pick_delta(u_light)];
+            let inc = s.incident(p);
+            let cos_i = n.dot(inc.wi);
+            if cos_i <= 0.0 || below(inc.wi) {
                 return Vec3::ZERO;
             }
-            let (f, _) = material::eval(m, color, n, wo, wi);
-            let contrib = f * s.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
+            let (f, _) = material::eval(m, color, n, wo, inc.wi);
+            let contrib = f * inc.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
             if contrib == Vec3::ZERO {
                 return Vec3::ZERO;
             }
-            // A sun reaches through panes (no path could find it otherwise: a delta light
-            // behind a delta transmission); emitters' light reaches through them by BSDF
+            // A delta light reaches through panes (no path could find it otherwise: a delta
+            // light behind a delta transmission); emitters' light reaches through them by BSDF
             // sampling only, so their shadow rays stop at a pane.
-            contrib * self.sun_transmittance(origin, wi)
+            contrib * self.shadow_transmittance(&s.shadow_ray(origin, &inc))
         } else {
             Vec3::ZERO
         }
     }
 
-    /// What of a sun's light reaches `origin` along the ray from `origin` towards the sun
-    /// (`wi`): 1 through nothing, the product of the panes' `w_pane × T(θ) × C` through
-    /// panes only, 0 where anything else blocks it (at most 16 panes).
-    pub fn sun_transmittance(&self, origin: Vec3, wi: Vec3) -> Vec3 {
+    /// What of a delta light's light reaches the origin of its shadow `ray` (towards a sun: no
+    /// end; to a point or spot light: `tmax` 1 with the light at `origin + dir`): 1 through
+    /// nothing, the product of the panes' `w_pane × T(θ) × C` through panes only, 0 where
+    /// anything else blocks it (at most 16 panes).
+    pub fn shadow_transmittance(&self, ray: &Ray) -> Vec3 {
+        let d = Vec3::from(ray.dir);
+        let wi = d.normalize();
+        let end = ray
+            .tmax
+            .is_finite()
+            .then(|| Vec3::from(ray.origin) + d * ray.tmax);
         let mut t = Vec3::ONE;
-        let mut ray = Ray::new(origin, wi, f32::INFINITY);
+        let mut ray = *ray;
         for _ in 0..16 {
             let hit = self.bvh.closest_hit(&ray);
             if !hit.is_hit() {
@@ -472,14 +530,34 @@ impl<'a> PreparedScene<'a> {
             if pass <= 0.0 {
                 return Vec3::ZERO;
             }
-            let uv = self.uv_at(hit.tri, hit.u, hit.v);
+            let uv = self.uv_at(hit.tri, m.base_texcoord, hit.u, hit.v);
             t *= m.base_color * self.texture(m.base_texture, uv) * pass;
             let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
-            let side = if ng.dot(wi) > 0.0 { ng } else { -ng };
-            ray = Ray::new(offset_ray_origin(p, side), wi, f32::INFINITY);
+            let from = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
+            ray = match end {
+                Some(end) => {
+                    let rest = end - from;
+                    // Past the segment's end (the pane lies within an ulp of it): done.
+                    if rest.dot(d) <= 0.0 {
+                        return t;
+                    }
+                    Ray::new(from, rest, 1.0)
+                }
+                None => Ray::new(from, wi, f32::INFINITY),
+            };
         }
         Vec3::ZERO
     }
+}
+
+/// A path vertex: its point, shading normal `n` and geometric normal `ng` (both on the side
+/// the path arrived at), and the offset origin of rays leaving it.
+#[derive(Clone, Copy)]
+struct Vertex {
+    p: Vec3,
+    n: Vec3,
+    ng: Vec3,
+    origin: Vec3,
 }
 
 /// Side of a render tile in pixels (the unit of work handed to threads).

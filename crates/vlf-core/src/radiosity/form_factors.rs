@@ -113,7 +113,9 @@ struct Ctx<'a> {
 }
 
 /// Computes the form factors and source terms of every covered texel of `prep`, with constant
-/// sky radiance `sky` for escaping rays (`BakeParams::sky`) and the prepared scene's suns.
+/// sky radiance `sky` for escaping rays (`BakeParams::sky`), the prepared scene's suns and its
+/// point and spot lights (their direct light as the propagation injects it,
+/// [`crate::bake::punctual`]).
 /// Deterministic for a given seed, whatever the thread count.
 pub fn form_factors(
     prep: &BakeScene,
@@ -222,6 +224,8 @@ pub fn form_factors(
         non_diffuse_faces: non_diffuse_faces(prep),
     };
     ff.row_start.push(0);
+    // Point and spot lights: the propagation's injected direct light, per texel.
+    let lamps = crate::bake::punctual::injected_irradiance(prep, settings.threads);
     for (p, row) in done.into_iter().flat_map(|(_, rows)| rows).enumerate() {
         let t = patch_texel[p] as usize;
         for (c, v) in row.entries {
@@ -231,7 +235,10 @@ pub fn form_factors(
         ff.row_start.push(ff.columns.len() as u32);
         let rho = Vec4::from(prep.albedo[t]).truncate();
         let e = Vec4::from(prep.emission[t]).truncate();
-        let direct = rho * (sky * row.sky + row.sun / std::f32::consts::PI);
+        let lamp = lamps
+            .as_ref()
+            .map_or(Vec3::ZERO, |l| Vec4::from(l[t]).truncate());
+        let direct = rho * (sky * row.sky + (row.sun + lamp) / std::f32::consts::PI);
         ff.albedo.push(rho.extend(0.0).into());
         ff.emission.push(e.extend(0.0).into());
         ff.direct.push(direct.extend(0.0).into());

@@ -10,9 +10,10 @@
 //!   each patch, stratified cosine-weighted rays with origins jittered over the texel's covered
 //!   area, traced in VLF space with the path tracer's [`Bvh`](crate::pathtrace::Bvh);
 //!   `F_ij = hits_j / N`. Rays that escape see the sky; suns are direct light found with shadow
-//!   rays (irradiance × cos × visible fraction, as the baker injects them).
+//!   rays (irradiance × cos × visible fraction, as the baker injects them); point and spot
+//!   lights are the propagation's injected direct light (`bake::punctual`).
 //! * **The system**, in radiance, RGB: `L_i = S_i + ρ_i Σ_j F_ij L_j` with the source
-//!   `S_i = E_i + ρ_i (sky · F_i,sky + E_sun,i / π)`.
+//!   `S_i = E_i + ρ_i (sky · F_i,sky + (E_sun,i + E_lamp,i) / π)`.
 //! * **Solvers**: [`solve_gauss_seidel`] (in place, row order) and [`solve_jacobi`] on the CPU;
 //!   Jacobi on the GPU lives in `vlf_gpu::radiosity` and is checked against [`solve_jacobi`].
 //!

@@ -3,7 +3,7 @@
 use glam::{Vec2, Vec3};
 
 use super::faces::{RawTriangle, build_faces};
-use super::{Aabb, Material, MaterialKind, Scene, Texture, Transparency, fit_similarity};
+use super::{Aabb, Corners, Material, MaterialKind, Scene, Texture, Transparency, fit_similarity};
 
 /// Accumulates triangles and materials, then builds a [`Scene`] exactly as the glTF importer
 /// does (faces merged, VLF transform fitted).
@@ -65,11 +65,72 @@ impl SceneBuilder {
 
     /// Adds a triangle, counter-clockwise seen from its front.
     pub fn triangle(&mut self, p: [Vec3; 3], material: u32) -> &mut Self {
+        self.triangles.push(RawTriangle::plain(p, material));
+        self
+    }
+
+    /// Adds a triangle with texture coordinates, shading normals or vertex colours at its
+    /// corners. Normals are taken as given (unit, on the front side: the importer's
+    /// guarantees), except that a triangle whose normals all equal its geometric normal is
+    /// stored flat as the importer stores it.
+    pub fn triangle_with(&mut self, p: [Vec3; 3], material: u32, corners: Corners) -> &mut Self {
+        let g = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        let normals = corners.normals.filter(|n| {
+            n.iter()
+                .any(|n| f64::from(n.dot(g)) <= super::FACE_COS_TOLERANCE)
+        });
         self.triangles.push(RawTriangle {
             p,
-            uv: [Vec2::ZERO; 3],
+            uv: corners.uv,
             material,
+            normals,
+            colors: corners.colors,
+            uv1: corners.uv1,
         });
+        self
+    }
+
+    /// Adds a UV sphere (`segments` around the axis +Y, `rings` from pole to pole), fronts
+    /// outwards; `smooth` gives every corner the sphere's normal there as its shading normal.
+    pub fn sphere(
+        &mut self,
+        center: Vec3,
+        radius: f32,
+        (segments, rings): (u32, u32),
+        material: u32,
+        smooth: bool,
+    ) -> &mut Self {
+        let dir = |i: u32, j: u32| {
+            let phi = std::f32::consts::TAU * i as f32 / segments as f32;
+            let theta = std::f32::consts::PI * j as f32 / rings as f32;
+            Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                -theta.sin() * phi.sin(),
+            )
+        };
+        for j in 0..rings {
+            for i in 0..segments {
+                let (a, b) = (dir(i, j), dir(i + 1, j));
+                let (c, d) = (dir(i + 1, j + 1), dir(i, j + 1));
+                // Counter-clockwise from outside; the poles' degenerate halves left out.
+                let mut tris = Vec::new();
+                if j + 1 < rings {
+                    tris.push([a, d, c]);
+                }
+                if j > 0 {
+                    tris.push([a, c, b]);
+                }
+                for n in tris {
+                    let p = n.map(|n| center + n * radius);
+                    let corners = Corners {
+                        normals: smooth.then_some(n),
+                        ..Corners::default()
+                    };
+                    self.triangle_with(p, material, corners);
+                }
+            }
+        }
         self
     }
 
@@ -86,7 +147,14 @@ impl SceneBuilder {
             ([a, b, c], [uv[0], uv[1], uv[2]]),
             ([a, c, d], [uv[0], uv[2], uv[3]]),
         ] {
-            self.triangles.push(RawTriangle { p, uv, material });
+            self.triangle_with(
+                p,
+                material,
+                Corners {
+                    uv,
+                    ..Corners::default()
+                },
+            );
         }
         self
     }
@@ -131,10 +199,12 @@ impl SceneBuilder {
             textures: self.textures,
             cameras: Vec::new(),
             suns: Vec::new(),
+            lights: Vec::new(),
             bounds,
             to_vlf,
             warnings: Vec::new(),
             source: source.into(),
+            ignored_normal_maps: Vec::new(),
         }
     }
 }

@@ -114,7 +114,7 @@ pub enum SceneError {
     },
 
     /// [`super::check_lighting`]: nothing emits light.
-    #[error("no emitters, no sun and no sky: nothing would be lit (in {path})")]
+    #[error("no emitters, no lights and no sky: nothing would be lit (in {path})")]
     NothingLit {
         /// Scene file.
         path: PathBuf,

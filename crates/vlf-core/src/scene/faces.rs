@@ -36,6 +36,24 @@ pub(crate) struct RawTriangle {
     pub p: [Vec3; 3],
     pub uv: [Vec2; 3],
     pub material: u32,
+    /// Shading normals, vertex colours and `TEXCOORD_1` ([`Triangle`]'s fields).
+    pub normals: Option<[Vec3; 3]>,
+    pub colors: Option<[Vec3; 3]>,
+    pub uv1: Option<[Vec2; 3]>,
+}
+
+impl RawTriangle {
+    /// A triangle with no attributes beyond its positions.
+    pub fn plain(p: [Vec3; 3], material: u32) -> Self {
+        RawTriangle {
+            p,
+            uv: [Vec2::ZERO; 3],
+            material,
+            normals: None,
+            colors: None,
+            uv1: None,
+        }
+    }
 }
 
 struct UnionFind {
@@ -196,6 +214,9 @@ pub(crate) fn build_faces(raw: Vec<RawTriangle>) -> (Vec<Triangle>, Vec<Face>) {
                 uv: r.uv,
                 material: r.material,
                 face: f,
+                normals: r.normals,
+                colors: r.colors,
+                uv1: r.uv1,
             });
         }
         let mut verts: Vec<u32> = members.iter().flat_map(|&t| corners[t as usize]).collect();
@@ -388,16 +409,8 @@ mod tests {
     fn quad(corners: [Vec3; 4], material: u32) -> [RawTriangle; 2] {
         let [a, b, c, d] = corners;
         [
-            RawTriangle {
-                p: [a, b, c],
-                uv: [Vec2::ZERO; 3],
-                material,
-            },
-            RawTriangle {
-                p: [a, c, d],
-                uv: [Vec2::ZERO; 3],
-                material,
-            },
+            RawTriangle::plain([a, b, c], material),
+            RawTriangle::plain([a, c, d], material),
         ]
     }
 
@@ -454,11 +467,7 @@ mod tests {
             .collect();
         let centre = rot * Vec3::ZERO + offset;
         (0..n)
-            .map(|k| RawTriangle {
-                p: [centre, pts[k], pts[(k + 1) % n]],
-                uv: [Vec2::ZERO; 3],
-                material: 0,
-            })
+            .map(|k| RawTriangle::plain([centre, pts[k], pts[(k + 1) % n]], 0))
             .collect()
     }
 

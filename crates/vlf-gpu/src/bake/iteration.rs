@@ -28,6 +28,9 @@ pub(super) struct HostRadiance {
     next: Vec<[f32; 4]>,
     /// Irradiance per texel, all iterations (what the final gather reads).
     pub irradiance: Vec<[f32; 4]>,
+    /// The point and spot lights' direct irradiance, injected in the first iteration: the CPU
+    /// reference's array (`vlf_core::bake::punctual`), computed on the host.
+    punctual: Option<Vec<[f32; 4]>>,
     pub energy: EnergyStats,
 }
 
@@ -45,6 +48,7 @@ impl HostRadiance {
             total_tiles: vec![[0f32; 4]; tile_len],
             next: vec![[0f32; 4]; host.texels()],
             irradiance: vec![[0f32; 4]; host.texels()],
+            punctual: vlf_core::bake::punctual::injected_irradiance(scene, 0),
             energy: EnergyStats {
                 emitted: scene
                     .emitted_power()
@@ -179,6 +183,7 @@ pub(super) fn run_iteration(
         &acc_host,
         state.shooting.shot(),
         sky,
+        state.punctual.as_deref().filter(|_| first),
         &mut state.next,
         &mut state.irradiance,
     );

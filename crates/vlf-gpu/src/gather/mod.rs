@@ -35,6 +35,7 @@
 //! ports the fallback of a read whose quad is not clear, its visibility rays traced through the
 //! same BVH (and counted in the same loop budget) as the gather's rays.
 
+mod grid;
 mod plan;
 
 use std::sync::Arc;
@@ -58,6 +59,7 @@ use crate::readback::{read_buffer, storage_buffer};
 use crate::render::RenderError;
 use crate::render::upload::float_tile_textures;
 use crate::{GpuContext, shaders};
+use grid::{contact_entries, grid_data};
 pub use plan::{GatherBuffer, GatherCounts, GatherPlan};
 
 /// Invocations per workgroup (`@workgroup_size` of `gather_texels.wgsl`).
@@ -70,7 +72,7 @@ pub const DEFAULT_CHUNK: u32 = 4096;
 /// Sample points per `draw_points` step by default (up to 8 draws each, each with up to 4
 /// traced probes where the texel is partly enclosed).
 pub const DEFAULT_POINT_BATCH: u32 = 8;
-/// Rays (light samples, cosine rays, points of sun rays) per step by default.
+/// Rays (light samples, cosine rays, points of delta-light rays) per step by default.
 pub const DEFAULT_RAY_BATCH: u32 = 32;
 
 #[derive(Debug, thiserror::Error)]
@@ -112,7 +114,7 @@ pub enum Entry {
     IndirectEnd,
     LightSamples,
     CosineRays,
-    SunRays,
+    DeltaRays,
     DirectEnd,
 }
 
@@ -126,7 +128,7 @@ impl Entry {
         Entry::IndirectEnd,
         Entry::LightSamples,
         Entry::CosineRays,
-        Entry::SunRays,
+        Entry::DeltaRays,
         Entry::DirectEnd,
     ];
 
@@ -141,7 +143,7 @@ impl Entry {
             Entry::IndirectEnd => "indirect_end",
             Entry::LightSamples => "light_samples",
             Entry::CosineRays => "cosine_rays",
-            Entry::SunRays => "sun_rays",
+            Entry::DeltaRays => "delta_rays",
             Entry::DirectEnd => "direct_end",
         }
     }
@@ -279,14 +281,15 @@ pub struct Estimator {
     pub points: u32,
     pub light_samples: u32,
     pub cosine_rays: u32,
-    /// Whether the scene has suns (direct: one step per batch of points).
-    pub suns: bool,
+    /// Whether the scene has delta lights: suns, point or spot lights (direct: one step per
+    /// batch of points).
+    pub delta_lights: bool,
 }
 
 impl Estimator {
     /// The estimators of the two grids of `gp` (indirect, direct), as `vlf_core::gather`'s
     /// `indirect` and `direct` draw them.
-    pub fn of(gp: &GatherParams, has_emitters: bool, suns: bool) -> [Estimator; 2] {
+    pub fn of(gp: &GatherParams, has_emitters: bool, delta_lights: bool) -> [Estimator; 2] {
         [
             Estimator {
                 kind: Kind::Indirect,
@@ -294,7 +297,7 @@ impl Estimator {
                 points: gp.indirect_rays,
                 light_samples: 0,
                 cosine_rays: gp.indirect_rays,
-                suns: false,
+                delta_lights: false,
             },
             Estimator {
                 kind: Kind::Direct,
@@ -302,7 +305,7 @@ impl Estimator {
                 points: gp.light_samples.max(gp.direct_rays).max(1),
                 light_samples: if has_emitters { gp.light_samples } else { 0 },
                 cosine_rays: gp.direct_rays,
-                suns,
+                delta_lights,
             },
         ]
     }
@@ -378,8 +381,8 @@ pub fn steps(est: &Estimator, options: &GatherOptions) -> Vec<Step> {
                 options.ray_batch,
                 &mut s,
             );
-            if est.suns {
-                batches(Entry::SunRays, est.points, options.ray_batch, &mut s);
+            if est.delta_lights {
+                batches(Entry::DeltaRays, est.points, options.ray_batch, &mut s);
             }
             s.push(one(Entry::DirectEnd, 0));
         }
@@ -432,7 +435,7 @@ pub fn final_gather_with(
         let [ind, dir] = Estimator::of(
             gp,
             gpu_scene.packed.emitter_count > 0,
-            gpu_scene.packed.sun_count > 0,
+            gpu_scene.packed.delta_count > 0,
         );
         let run = |grid: &Grid, est: Estimator| {
             let mut opts = *options;
@@ -467,7 +470,14 @@ pub fn final_gather_with(
         };
         Ok((run(&grids.indirect, ind)?, run(&grids.direct, dir)?))
     })??;
-    Ok(spec::assemble(field, grids, &ind, &dir))
+    Ok(spec::assemble(
+        &ps,
+        field,
+        grids,
+        &ind,
+        &dir,
+        options.threads,
+    ))
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
@@ -548,25 +558,6 @@ fn field_bind_group(
     Ok((bind_group, [irradiance_at, contacts_at]))
 }
 
-/// Per-texel contact bits packed 16 to a vec4 entry: texel t's byte is byte t % 4
-/// (little-endian) of word (t / 4) % 4 of entry t / 16 (`contact_bits` in the shader).
-fn contact_entries(bits: &[u8]) -> Vec<[f32; 4]> {
-    bits.chunks(16)
-        .map(|c| {
-            let mut b = [0u8; 16];
-            b[..c.len()].copy_from_slice(c);
-            std::array::from_fn(|w| {
-                f32::from_bits(u32::from_le_bytes([
-                    b[4 * w],
-                    b[4 * w + 1],
-                    b[4 * w + 2],
-                    b[4 * w + 3],
-                ]))
-            })
-        })
-        .collect()
-}
-
 /// The estimates of every texel of `grid` (`None`: no open point), or `None` when a step of
 /// some texel ran out of the loop budget.
 #[allow(clippy::too_many_arguments)]
@@ -587,7 +578,7 @@ fn gather_grid(
     if count == 0 {
         return Ok(Some(Vec::new()));
     }
-    let (data, [grid_texels, chart_start, chart_tris]) = grid_data(grid);
+    let (data, [grid_texels, chart_start, chart_tris, chart_normals]) = grid_data(grid);
     let data = checked(
         device,
         "FinalGather::grid",
@@ -652,6 +643,7 @@ fn gather_grid(
         grid_texels,
         chart_start,
         chart_tris,
+        chart_normals,
         field_irradiance: irradiance_at,
         field_contacts: contacts_at,
         scratch_stride: est.scratch_stride(),
@@ -732,38 +724,6 @@ fn chunk_texels(
         });
     }
     Ok(requested.max(1).min(count).min(fit))
-}
-
-/// The grid buffer's contents (see `gather_texels.wgsl`) and its section offsets (texels,
-/// chart starts, chart triangles).
-fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 3]) {
-    let atlas = &grid.atlas;
-    let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&atlas.faces).to_vec();
-    let grid_texels = data.len() as u32;
-    for ((c, a), f) in atlas
-        .texel_center
-        .iter()
-        .zip(&atlas.texel_area)
-        .zip(&grid.tex_face)
-    {
-        data.push([c[0], c[1], c[2], *a]);
-        data.push([f32::from_bits(*f), 0.0, 0.0, 0.0]);
-    }
-    let chart_start = data.len() as u32;
-    let mut tris: Vec<[f32; 4]> = Vec::new();
-    for fi in 0..atlas.faces.len() {
-        data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-        let first = grid.charts.first_triangle(fi);
-        for (k, t) in grid.charts.triangles(fi).iter().enumerate() {
-            tris.push([t[0].x, t[0].y, t[1].x, t[1].y]);
-            // The scene triangle, whose alpha mask `chart_inside` reads.
-            tris.push([t[2].x, t[2].y, f32::from_bits(first + k as u32), 0.0]);
-        }
-    }
-    data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-    let chart_tris = data.len() as u32;
-    data.extend(tris);
-    (data, [grid_texels, chart_start, chart_tris])
 }
 
 #[cfg(test)]

@@ -18,6 +18,10 @@ pub struct GatherCounts {
     /// Planar faces (charts) of the scene, and its triangles.
     pub faces: u64,
     pub triangles: u64,
+    /// Triangles with shading normals, and those with any per-corner attribute beyond
+    /// `TEXCOORD_0` (shading normals, vertex colours, `TEXCOORD_1`).
+    pub smooth_triangles: u64,
+    pub attributed_triangles: u64,
     /// Texels of the propagation's atlas and its mirror tile values.
     pub field_texels: u64,
     pub tile_values: u64,
@@ -25,7 +29,8 @@ pub struct GatherCounts {
     pub texture_texels: u64,
     pub materials: u64,
     pub has_emitters: bool,
-    pub suns: bool,
+    /// Whether the scene has suns, point or spot lights.
+    pub delta_lights: bool,
 }
 
 /// One buffer (or texture) of the gather.
@@ -79,7 +84,11 @@ impl GatherPlan {
             ),
             buffer(
                 "Gather scene: shading data (uvs, materials, lights, textures)",
-                2 * c.triangles + 3 * c.materials + 2 * c.triangles + c.texture_texels,
+                2 * c.triangles
+                    + 3 * c.materials
+                    + 2 * c.triangles
+                    + c.texture_texels
+                    + u64::from(crate::raytrace::scene::ATTRIBUTE_ENTRIES) * c.attributed_triangles,
                 16,
             ),
             buffer(
@@ -89,7 +98,7 @@ impl GatherPlan {
             ),
             buffer("FinalGather::tile_values", c.tile_values, 16),
         ];
-        let ests = Estimator::of(gp, c.has_emitters, c.suns);
+        let ests = Estimator::of(gp, c.has_emitters, c.delta_lights);
         let texels = [c.indirect_texels, c.direct_texels];
         let mut chunks = [0; 2];
         let mut grids: Vec<Vec<GatherBuffer>> = Vec::new();
@@ -101,7 +110,12 @@ impl GatherPlan {
             grids.push(vec![
                 buffer(
                     "FinalGather::grid (faces, texels, charts)",
-                    5 * c.faces + 2 * texels[i] + c.faces + 1 + 2 * c.triangles,
+                    5 * c.faces
+                        + 2 * texels[i]
+                        + c.faces
+                        + 1
+                        + 2 * c.triangles
+                        + 3 * c.smooth_triangles,
                     16,
                 ),
                 buffer("FinalGather::out", texels[i], 16),

@@ -1,13 +1,19 @@
 use super::*;
 
-fn est(kind: Kind, points: u32, light_samples: u32, cosine_rays: u32, suns: bool) -> Estimator {
+fn est(
+    kind: Kind,
+    points: u32,
+    light_samples: u32,
+    cosine_rays: u32,
+    delta_lights: bool,
+) -> Estimator {
     Estimator {
         kind,
         stream: 0,
         points,
         light_samples,
         cosine_rays,
-        suns,
+        delta_lights,
     }
 }
 
@@ -65,8 +71,8 @@ fn steps_run_in_the_cpu_order_and_cover_every_sample_once() {
     assert!(first(Entry::FinishPoints) < first(Entry::LightSamples));
     assert!(last(Entry::LightSamples) < first(Entry::Shuffle));
     assert!(first(Entry::Shuffle) < first(Entry::CosineRays));
-    assert!(last(Entry::CosineRays) < first(Entry::SunRays));
-    assert_eq!(last(Entry::SunRays) + 1, first(Entry::DirectEnd));
+    assert!(last(Entry::CosineRays) < first(Entry::DeltaRays));
+    assert_eq!(last(Entry::DeltaRays) + 1, first(Entry::DirectEnd));
     assert_eq!(
         dir[first(Entry::FinishPoints)].side,
         8,
@@ -75,11 +81,11 @@ fn steps_run_in_the_cpu_order_and_cover_every_sample_once() {
     assert_eq!(dir[first(Entry::Shuffle)].side, 4, "then the cosine strata");
     assert!(covers(&ranges(&dir, Entry::LightSamples), 64, 7));
     assert!(covers(&ranges(&dir, Entry::CosineRays), 16, 7));
-    assert!(covers(&ranges(&dir, Entry::SunRays), 64, 7));
+    assert!(covers(&ranges(&dir, Entry::DeltaRays), 64, 7));
 
     // No suns, no emitters: no sun steps, no light-sample steps.
     let dir = steps(&est(Kind::Direct, 16, 0, 16, false), &opts);
-    assert!(ranges(&dir, Entry::SunRays).is_empty());
+    assert!(ranges(&dir, Entry::DeltaRays).is_empty());
     assert!(ranges(&dir, Entry::LightSamples).is_empty());
 }
 

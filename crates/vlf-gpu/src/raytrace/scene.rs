@@ -4,10 +4,11 @@
 //!
 //! | section | entries (vec4 each) |
 //! |---|---|
-//! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, face, 0]` |
-//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, 0]` |
+//! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, face, attributes]` (corner `TEXCOORD_0`s; `attributes`: the triangle's entry in the attribute section, [`NONE`] without one) |
+//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, texcoords]` (`texcoords`: bit 0 the base-colour texture reads `TEXCOORD_1`, bit 1 the emissive one) |
+//! | attributes, at `attr_base` | per triangle with shading normals, vertex colours or `TEXCOORD_1` ([`ATTRIBUTE_ENTRIES`] each): `[n0, flags]`, `[n1, 0]`, `[n2, 0]`, `[c0, 0]`, `[c1, 0]`, `[c2, 0]`, `[t0, t1]`, `[t2, 0, 0]` (flags: [`ATTR_SMOOTH`], [`ATTR_COLORS`]; the normals are unit, the colours white without vertex colours, the t the corner `TEXCOORD_1`s, 0 without) |
 //! | emitters, at `emitter_base` | per emitter: `[triangle, area, pdf, cdf]` |
-//! | suns, at `sun_base` | per sun: `[to_sun xyz, pdf]`, `[irradiance rgb, cdf]` |
+//! | delta lights, at `delta_base` | per light (suns, then point and spot lights, `vlf_core::pathtrace::lights::DeltaLight`): `[position (sun: direction towards it) xyz, kind]`, `[intensity (sun: irradiance) rgb, pdf]`, `[spot axis xyz, cdf]`, `[cone scale, cone offset, 1/range, 0]` |
 //! | textures, at `tex_base` | per texture: `[texel offset, width, height, wrap_s | wrap_t << 4]`, then all texels (linear RGBA) |
 //!
 //! Integers (indices, sizes, [`NONE`]) are stored as their bit patterns. The path tracer reads
@@ -20,6 +21,12 @@
 use crate::layout::RtSceneInfo;
 use vlf_core::pathtrace::{NONE, PreparedScene};
 
+/// Entries (vec4) per triangle of the attribute section.
+pub const ATTRIBUTE_ENTRIES: u32 = 8;
+/// Attribute flags: the triangle has shading normals; it has vertex colours.
+pub const ATTR_SMOOTH: u32 = 1;
+pub const ATTR_COLORS: u32 = 2;
+
 /// The packed shading data and where each section starts.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PackedScene {
@@ -27,11 +34,13 @@ pub struct PackedScene {
     pub mat_base: u32,
     pub emitter_base: u32,
     pub emitter_count: u32,
-    pub sun_base: u32,
-    pub sun_count: u32,
+    pub delta_base: u32,
+    pub delta_count: u32,
     pub tex_base: u32,
-    /// Probability of sampling an emitter rather than a sun.
+    /// Probability of sampling an emitter rather than a delta light.
     pub p_emitters: f32,
+    /// Where the attribute section starts.
+    pub attr_base: u32,
 }
 
 fn bits(x: u32) -> f32 {
@@ -45,11 +54,11 @@ impl PackedScene {
             mat_base: self.mat_base,
             emitter_base: self.emitter_base,
             emitter_count: self.emitter_count,
-            sun_base: self.sun_base,
-            sun_count: self.sun_count,
+            delta_base: self.delta_base,
+            delta_count: self.delta_count,
             tex_base: self.tex_base,
             p_emitters: self.p_emitters,
-            _pad: 0,
+            attr_base: self.attr_base,
         }
     }
 }
@@ -57,28 +66,57 @@ impl PackedScene {
 /// Packs the shading data of `prep` (see the module docs for the layout).
 pub fn pack(prep: &PreparedScene) -> PackedScene {
     let mut blob: Vec<[f32; 4]> = Vec::new();
+    // TEXCOORD_1 only where a material reads it.
+    let uv1 = prep.materials.iter().any(|m| {
+        (m.base_texture.is_some() && m.base_texcoord == 1)
+            || (m.emissive_texture.is_some() && m.emissive_texcoord == 1)
+    });
+    let mut attributes: Vec<[f32; 4]> = Vec::new();
     for (uv, t) in prep.uvs.iter().zip(&prep.bvh.triangles) {
-        let face = prep.scene.triangles[t.prim as usize].face;
+        let st = &prep.scene.triangles[t.prim as usize];
+        let extra = st.normals.is_some() || st.colors.is_some() || (uv1 && st.uv1.is_some());
+        let attr = if extra {
+            let k = attributes.len() as u32 / ATTRIBUTE_ENTRIES;
+            let flags = if st.normals.is_some() { ATTR_SMOOTH } else { 0 }
+                | if st.colors.is_some() { ATTR_COLORS } else { 0 };
+            let n = st.normals.unwrap_or([glam::Vec3::ZERO; 3]);
+            let c = st.colors.unwrap_or([glam::Vec3::ONE; 3]);
+            let t1 = st.uv_set(1);
+            attributes.push([n[0].x, n[0].y, n[0].z, bits(flags)]);
+            attributes.push([n[1].x, n[1].y, n[1].z, 0.0]);
+            attributes.push([n[2].x, n[2].y, n[2].z, 0.0]);
+            for c in c {
+                attributes.push([c.x, c.y, c.z, 0.0]);
+            }
+            attributes.push([t1[0].x, t1[0].y, t1[1].x, t1[1].y]);
+            attributes.push([t1[2].x, t1[2].y, 0.0, 0.0]);
+            k
+        } else {
+            NONE
+        };
         blob.push([uv[0].x, uv[0].y, uv[1].x, uv[1].y]);
-        blob.push([uv[2].x, uv[2].y, bits(face), 0.0]);
+        blob.push([uv[2].x, uv[2].y, bits(st.face), bits(attr)]);
     }
     let mat_base = blob.len() as u32;
     let baked = vlf_core::bake::glossy::baked_materials(&prep.scene.materials, None);
     for (m, bm) in prep.materials.iter().zip(&baked) {
         let b = m.base_color;
         let e = m.emission;
+        let sets = m.base_texcoord.min(1) | (m.emissive_texcoord.min(1) << 1);
         blob.push([b.x, b.y, b.z, bits(m.base_texture.unwrap_or(NONE))]);
         blob.push([e.x, e.y, e.z, bits(m.emissive_texture.unwrap_or(NONE))]);
-        blob.push([m.w_diffuse, m.alpha, bm.diffuse_weight, 0.0]);
+        blob.push([m.w_diffuse, m.alpha, bm.diffuse_weight, bits(sets)]);
     }
     let emitter_base = blob.len() as u32;
     for e in &prep.lights.emitters {
         blob.push([bits(e.tri), e.area, e.pdf, e.cdf]);
     }
-    let sun_base = blob.len() as u32;
-    for s in &prep.lights.suns {
-        blob.push([s.to_sun.x, s.to_sun.y, s.to_sun.z, s.pdf]);
-        blob.push([s.irradiance.x, s.irradiance.y, s.irradiance.z, s.cdf]);
+    let delta_base = blob.len() as u32;
+    for l in &prep.lights.delta {
+        blob.push(l.position.extend(bits(l.kind)).into());
+        blob.push(l.intensity.extend(l.pdf).into());
+        blob.push(l.axis.extend(l.cdf).into());
+        blob.push([l.cone_scale, l.cone_offset, l.inv_range, 0.0]);
     }
     let tex_base = blob.len() as u32;
     let textures = &prep.scene.textures;
@@ -103,6 +141,8 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
             blob.extend(t.pixels.iter().map(|p| p.to_array()));
         }
     }
+    let attr_base = blob.len() as u32;
+    blob.extend(attributes);
     if blob.is_empty() {
         blob.push([0.0; 4]);
     }
@@ -111,10 +151,11 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
         mat_base,
         emitter_base,
         emitter_count: prep.lights.emitters.len() as u32,
-        sun_base,
-        sun_count: prep.lights.suns.len() as u32,
+        delta_base,
+        delta_count: prep.lights.delta.len() as u32,
         tex_base,
         p_emitters: prep.lights.p_emitters,
+        attr_base,
     }
 }
 
@@ -156,8 +197,8 @@ mod tests {
         assert_eq!(p.mat_base as usize, 2 * prep.bvh.triangles.len());
         assert_eq!(p.emitter_base, p.mat_base + 3 * 2);
         assert_eq!(p.emitter_count, 2);
-        assert_eq!(p.sun_base, p.emitter_base + 2);
-        assert_eq!(p.tex_base, p.sun_base);
+        assert_eq!(p.delta_base, p.emitter_base + 2);
+        assert_eq!(p.tex_base, p.delta_base);
         let header = p.blob[p.tex_base as usize];
         assert_eq!(header[0].to_bits(), p.tex_base + 1);
         assert_eq!((header[1].to_bits(), header[2].to_bits()), (2, 1));

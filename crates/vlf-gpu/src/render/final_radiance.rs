@@ -76,14 +76,16 @@
 
 use std::collections::HashMap;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use vlf_core::lightfield::{BakeFace, LightField, Radiance};
 
+pub use super::attributes::{PixelSurface, SurfaceLookup, shading_normal};
 use super::targets::{
     DEPTH_STENCIL_FORMAT, MIRROR_STENCIL, RADIANCE_FORMAT, TEXTURED_STENCIL, Targets,
 };
 use super::upload::{
-    FLAG_BASE_TEXTURE, FLAG_EMISSIVE_TEXTURE, GpuLightField, face_flags, rho_over_pi, tiles_layout,
+    FLAG_BASE_TEXTURE, FLAG_BASE_UV1, FLAG_COLORS, FLAG_EMISSIVE_TEXTURE, FLAG_EMISSIVE_UV1,
+    FLAG_SMOOTH, GpuLightField, face_flags, rho_over_pi, tiles_layout,
 };
 use super::{storage_entry, texture_entry};
 use crate::raytrace::GpuBvh;
@@ -114,13 +116,14 @@ impl TextureKinds {
 }
 
 /// One draw of the pass: the shader's texture constants, whether it has the mirror code
-/// (`specular`) and traces ([`super::mirror_trace`]) and, with a stencil, the stencil value and
-/// read mask of the pixels it shades.
+/// (`specular`) and traces ([`super::mirror_trace`]), whether it reads per-corner attributes
+/// and, with a stencil, the stencil value and read mask of the pixels it shades.
 #[derive(Clone, Copy, Debug)]
 struct Variant {
     textures: TextureKinds,
     specular: bool,
     tracing: bool,
+    attributes: bool,
     stencil: Option<(u32, u32)>,
 }
 
@@ -131,12 +134,14 @@ fn present_variants(
     textures: TextureKinds,
     mirrors: bool,
     tracing: bool,
+    attributes: bool,
     stencil: bool,
 ) -> Vec<Variant> {
     let all = Variant {
         textures,
         specular: mirrors,
         tracing,
+        attributes,
         stencil: None,
     };
     if !stencil {
@@ -147,6 +152,8 @@ fn present_variants(
         textures: TextureKinds::default(),
         specular: false,
         tracing: false,
+        // Vertex colours colour plain pixels too.
+        attributes,
         stencil: Some((0, both)),
     }];
     if textures.any() {
@@ -202,13 +209,16 @@ pub struct FinalRadiancePass {
 impl FinalRadiancePass {
     /// `textures`: the kinds of texture the light field's faces read; `mirrors`: whether it has
     /// mirror or mixed faces (then mirror pixels trace, [`super::mirror_trace`]);
-    /// `depth_format`: that of passes 3–4, [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured
-    /// faces in the stencil (see the module docs).
+    /// `attributes`: whether it has per-corner attributes (shading normals, vertex colours,
+    /// `TEXCOORD_1`; [`super::attributes::has_attributes`]); `depth_format`: that of passes 3–4,
+    /// [`DEPTH_STENCIL_FORMAT`] when pass 3 marks textured faces in the stencil (see the module
+    /// docs).
     pub fn new(
         device: &wgpu::Device,
         globals_layout: &wgpu::BindGroupLayout,
         textures: TextureKinds,
         mirrors: bool,
+        attributes: bool,
         depth_format: wgpu::TextureFormat,
         masks: bool,
     ) -> Self {
@@ -234,6 +244,9 @@ impl FinalRadiancePass {
                 storage_entry(15, vis, true),
                 storage_entry(16, vertex, true),
                 storage_entry(17, vertex, true),
+                texture_entry(18, vis, unfiltered),
+                texture_entry(19, vis, wgpu::TextureSampleType::Uint),
+                storage_entry(20, vis | vertex, true),
             ],
         });
         let tiles_layout = tiles_layout(device, "FinalRadiance::tiles_layout", vis);
@@ -251,11 +264,12 @@ impl FinalRadiancePass {
             textures,
             specular: mirrors,
             tracing,
+            attributes,
             stencil: None,
         });
         let stencil = depth_format == DEPTH_STENCIL_FORMAT;
-        let present_variants =
-            [false, true].map(|tracing| present_variants(textures, mirrors, tracing, stencil));
+        let present_variants = [false, true]
+            .map(|tracing| present_variants(textures, mirrors, tracing, attributes, stencil));
         let pipelines = variants[..1 + usize::from(mirrors)]
             .iter()
             .map(|v| Self::create_pipeline(device, &pipeline_layout, &module, *v, None, masks))
@@ -310,7 +324,10 @@ impl FinalRadiancePass {
             ("SPECULAR", flag(variant.specular)),
             ("TRACING", flag(variant.tracing)),
             ("MASKS", flag(masks)),
+            ("ATTRIBUTES", flag(variant.attributes)),
         ];
+        // The vertex stage reads the attributes too (vs_surface).
+        let vertex_constants = [("ATTRIBUTES", flag(variant.attributes))];
         let equal = wgpu::StencilFaceState {
             compare: wgpu::CompareFunction::Equal,
             fail_op: wgpu::StencilOperation::Keep,
@@ -351,7 +368,10 @@ impl FinalRadiancePass {
             vertex: wgpu::VertexState {
                 module,
                 entry_point: Some(vertex),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &vertex_constants,
+                    ..Default::default()
+                },
                 buffers: &[],
             },
             primitive: wgpu::PrimitiveState::default(),
@@ -473,6 +493,12 @@ impl FinalRadiancePass {
                 wgpu::BindGroupEntry {
                     binding: 17,
                     resource: lf.uvs.as_entire_binding(),
+                },
+                tex(18, &targets.attributes_view[0]),
+                tex(19, &targets.attributes_view[1]),
+                wgpu::BindGroupEntry {
+                    binding: 20,
+                    resource: lf.attributes.as_entire_binding(),
                 },
             ],
         });
@@ -600,28 +626,41 @@ pub fn atlas_irradiance(face: &BakeFace, irradiance: &Radiance, side: u32, p: Ve
 }
 
 /// CPU counterpart of pass 5 without the specular tiles: `Le(uv) [side 0] + ρ_d(uv)/π · E` of
-/// face `face` at plane point `p` and texture coordinate `uv` on `side`, in f32 in the shader's
-/// order of operations. `offsets` is `lf.shading.texture_offsets()`.
+/// face `face` at plane point `p` with the interpolated attributes `s` on `side`, in f32 in the
+/// shader's order of operations: the base-colour texture (read with the set its material
+/// names) and then the vertex colour (on faces with [`FLAG_COLORS`]) multiply ρ_d; on faces
+/// with smooth triangles the interpolated irradiance correction is added to the atlas's
+/// ([`super::attributes`]).
 pub fn surface_radiance(
     lf: &LightField,
-    offsets: &[u64],
+    lookup: &SurfaceLookup,
     face: u32,
     side: u32,
     p: Vec3,
-    uv: Vec2,
+    s: &PixelSurface,
 ) -> Vec3 {
     let f = &lf.faces[face as usize];
     let sh = &lf.shading;
+    let flags = lookup.flags[face as usize];
     let m = &sh.materials[f.material as usize];
     let mut l = Vec3::ZERO;
     let rho = rho_over_pi(m);
     if rho.max_element() > 0.0 {
-        let rho = rho * sh.sample(m.base_color_texture, uv, offsets);
-        l = rho * atlas_irradiance(f, &lf.irradiance, side, p);
+        let uv = s.tex_uv(flags & FLAG_BASE_UV1 != 0);
+        let mut rho = rho * sh.sample(m.base_color_texture, uv, &lookup.offsets);
+        if flags & FLAG_COLORS != 0 {
+            rho *= s.color;
+        }
+        let mut e = atlas_irradiance(f, &lf.irradiance, side, p);
+        if flags & FLAG_SMOOTH != 0 {
+            e += s.irradiance;
+        }
+        l = rho * e;
     }
     let le = Vec3::from(m.emission);
     if side == 0 && le.max_element() > 0.0 {
-        l += le * sh.sample(m.emissive_texture, uv, offsets);
+        let uv = s.tex_uv(flags & FLAG_EMISSIVE_UV1 != 0);
+        l += le * sh.sample(m.emissive_texture, uv, &lookup.offsets);
     }
     l
 }

@@ -20,6 +20,14 @@
 //!
 //! Emission of mirrors passed along the chain is not added (as in the resampling).
 //!
+//! Shading normals: a smooth mirror (a face with [`super::upload::FLAG_SMOOTH`] and a non-zero
+//! interpolated normal at the point) reflects about the interpolated normal, at the visible
+//! point (pass 4b's normal) and along the chain (the hit's corner normals); its glossy lobe is
+//! sampled about it. Rays still leave from the geometric surface, and a reflected direction
+//! below it ends the chain black (it would enter the solid the mirror bounds; the path tracer
+//! ends such a path too), not cut. Vertex colours multiply the reflectance C as they multiply
+//! the base colour, and textures read the set their slot names ([`PixelSurface`]).
+//!
 //! A glossy visible face (GGX α > 0 in its material, issue 16) traces [`LOBE_SAMPLES`]
 //! directions of its lobe per pass-5 sample instead of the one mirror direction, each chain
 //! following the rules above (further mirrors reflect as perfect mirrors); the share of them
@@ -44,7 +52,10 @@ use vlf_core::scene::pane_reflectance;
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
-use super::final_radiance::{surface_radiance, visible_side};
+use super::final_radiance::{
+    PixelSurface, SurfaceLookup, shading_normal, surface_radiance, visible_side,
+};
+use super::upload::{FLAG_BASE_UV1, FLAG_COLORS};
 use crate::raytrace::GpuBvh;
 
 /// Mirrors a traced chain follows, the visible one included, before it falls back to the
@@ -57,13 +68,25 @@ pub fn has_mirrors(lf: &LightField) -> bool {
     lf.faces.iter().any(|f| f.kind != FACE_DIFFUSE)
 }
 
-/// Mirror reflectance of face `face` at texture coordinate `uv`: the face record's
-/// ([`super::upload::specular_reflectance`]) × the base-colour texture, as pass 5 computes it
-/// (C of the glTF metal lobe). `offsets` is `lf.shading.texture_offsets()`.
-pub fn specular_reflectance(lf: &LightField, offsets: &[u64], face: u32, uv: Vec2) -> Vec3 {
+/// Mirror reflectance of face `face` at a point with attributes `s`: the face record's
+/// ([`super::upload::specular_reflectance`]) × the base-colour texture × the vertex colour, as
+/// pass 5 computes it (C of the glTF metal lobe).
+pub fn specular_reflectance(
+    lf: &LightField,
+    lookup: &SurfaceLookup,
+    face: u32,
+    s: &PixelSurface,
+) -> Vec3 {
     let f = &lf.faces[face as usize];
     let m = &lf.shading.materials[f.material as usize];
-    super::upload::specular_reflectance(f, m) * lf.shading.sample(m.base_color_texture, uv, offsets)
+    let flags = lookup.flags[face as usize];
+    let uv = s.tex_uv(flags & FLAG_BASE_UV1 != 0);
+    let mut c = super::upload::specular_reflectance(f, m)
+        * lf.shading.sample(m.base_color_texture, uv, &lookup.offsets);
+    if flags & FLAG_COLORS != 0 {
+        c *= s.color;
+    }
+    c
 }
 
 /// The BVH pass 5 traces: `lf`'s triangles (VLF coordinates), `material` = face,
@@ -157,7 +180,7 @@ pub fn lobe_point(pixel: u32, k: u32) -> Vec2 {
 }
 
 /// CPU specification of pass 5's traced branch: the specular radiance reaching an eye at `eye`
-/// from the visible point `p` (texture coordinate `uv`) of non-diffuse face `face`, in f32 in
+/// from the visible point `p` (attributes `s`) of non-diffuse face `face`, in f32 in
 /// the shader's order of operations. A perfect mirror (GGX α 0 in its material) traces the
 /// reflected view ray along the chain of the module docs. A glossy lobe (α > 0) traces
 /// [`LOBE_SAMPLES`] directions reflected about normals drawn from its distribution of visible
@@ -167,16 +190,17 @@ pub fn lobe_point(pixel: u32, k: u32) -> Vec2 {
 /// the tiles' direction spacing cannot resolve for lobes narrower than it. Only the visible
 /// face's lobe is sampled: further mirrors along a chain reflect as perfect mirrors. Pass 5
 /// calls it with `pixel` = row × width + column and `first` = sample index × [`LOBE_SAMPLES`].
-/// `bvh` is [`build_bvh`]`(lf)`, `offsets` `lf.shading.texture_offsets()`.
+/// A smooth point reflects about its shading normal (module docs). `bvh` is
+/// [`build_bvh`]`(lf)`, `lookup` [`SurfaceLookup::new`]`(lf)`.
 #[allow(clippy::too_many_arguments)]
 pub fn traced_specular(
     lf: &LightField,
     bvh: &Bvh,
-    offsets: &[u64],
+    lookup: &SurfaceLookup,
     eye: Vec3,
     face: u32,
     p: Vec3,
-    uv: Vec2,
+    s: &PixelSurface,
     pixel: u32,
     first: u32,
 ) -> TracedSpecular {
@@ -184,7 +208,8 @@ pub fn traced_specular(
     let n = f.normal();
     let d = (p - eye).normalize();
     let side = if visible_side(f, eye, p) == 0 { n } else { -n };
-    let c = specular_reflectance(lf, offsets, face, uv);
+    let (ns, smooth) = shading_normal(lookup, face, s, side);
+    let c = specular_reflectance(lf, lookup, face, s);
     let origin = offset_ray_origin(p, side);
     let m = &lf.shading.materials[f.material as usize];
     if m.pane > 0.0 {
@@ -195,40 +220,47 @@ pub fn traced_specular(
         let (reflected, cut) = trace_chain(
             lf,
             bvh,
-            offsets,
+            lookup,
             origin,
             (d - 2.0 * d.dot(n) * n).normalize(),
             Vec3::splat(m.pane * r),
         );
         let behind = offset_ray_origin(p, -side);
-        let (passed, _) = trace_chain(lf, bvh, offsets, behind, d, c * (1.0 - r));
+        let (passed, _) = trace_chain(lf, bvh, lookup, behind, d, c * (1.0 - r));
         return TracedSpecular {
             radiance: reflected + passed,
             tiles: if cut { 1.0 } else { 0.0 },
         };
     }
     let alpha = m.specular_alpha;
+    let none = TracedSpecular {
+        radiance: Vec3::ZERO,
+        tiles: 0.0,
+    };
     if alpha <= 0.0 {
-        let (radiance, cut) = trace_chain(
-            lf,
-            bvh,
-            offsets,
-            origin,
-            (d - 2.0 * d.dot(n) * n).normalize(),
-            c,
-        );
+        let r = (d - 2.0 * d.dot(ns) * ns).normalize();
+        if smooth && r.dot(side) <= 0.0 {
+            return none;
+        }
+        let (radiance, cut) = trace_chain(lf, bvh, lookup, origin, r, c);
         return TracedSpecular {
             radiance,
             tiles: if cut { 1.0 } else { 0.0 },
         };
     }
-    let wo = to_local(-d, side);
+    let wo = to_local(-d, ns);
+    if smooth && wo.z <= 0.0 {
+        return none;
+    }
     let (mut sum, mut cut) = (Vec3::ZERO, 0.0f32);
     for k in 0..LOBE_SAMPLES {
         let wi = reflect(wo, ggx_sample_vndf(wo, alpha, lobe_point(pixel, first + k)));
         if wi.z > 0.0 {
-            let dir = to_world(wi, side).normalize();
-            let (l, c_off) = trace_chain(lf, bvh, offsets, origin, dir, c * ggx_g1(wi.z, alpha));
+            let dir = to_world(wi, ns).normalize();
+            if smooth && dir.dot(side) <= 0.0 {
+                continue;
+            }
+            let (l, c_off) = trace_chain(lf, bvh, lookup, origin, dir, c * ggx_g1(wi.z, alpha));
             sum += l;
             cut += if c_off { 1.0 } else { 0.0 };
         }
@@ -242,12 +274,13 @@ pub fn traced_specular(
 
 /// The radiance a traced chain brings back along `dir` from `origin` (a point of the visible
 /// non-diffuse face, already offset) times `throughput`, and whether it was cut off (by the
-/// depth bound or on a mixed face: zero radiance, the tiles stand in). As pass 5's
-/// `trace_chain`.
+/// depth bound or on a mixed face: zero radiance, the tiles stand in). A smooth mirror along the
+/// chain reflects about its interpolated normal; a reflection below its geometric surface ends
+/// the chain black. As pass 5's `trace_chain`.
 fn trace_chain(
     lf: &LightField,
     bvh: &Bvh,
-    offsets: &[u64],
+    lookup: &SurfaceLookup,
     origin: Vec3,
     dir: Vec3,
     throughput: Vec3,
@@ -269,15 +302,14 @@ fn trace_chain(
         let q = p0 * b0 + p1 * b1 + p2 * b2;
         let f = &lf.faces[face as usize];
         let n = f.normal();
-        let uv = lf.shading.uvs[t.prim as usize].map(Vec2::from);
-        let uv = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
+        let hside = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
+        let s = PixelSurface::of_triangle(lf, &lookup.attributes, t.prim as usize, b1, b2, hside);
         let m = &lf.shading.materials[f.material as usize];
         if m.pane > 0.0 && depth < MAX_DEPTH {
             // A pane along the chain: its diffuse part, then on straight through it (its own
             // reflection, which only its tiles hold in the ray's direction, is left out).
-            let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
-            seen += throughput * surface_radiance(lf, offsets, face, side, q, uv);
-            throughput *= specular_reflectance(lf, offsets, face, uv)
+            seen += throughput * surface_radiance(lf, lookup, face, hside, q, &s);
+            throughput *= specular_reflectance(lf, lookup, face, &s)
                 * (1.0 - pane_reflectance(dir.dot(n), m.ior));
             origin = offset_ray_origin(q, if n.dot(dir) > 0.0 { n } else { -n });
             depth += 1;
@@ -285,14 +317,18 @@ fn trace_chain(
         }
         match f.kind {
             FACE_DIFFUSE => {
-                let side = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
-                let l = surface_radiance(lf, offsets, face, side, q, uv);
+                let side = hside;
+                let l = surface_radiance(lf, lookup, face, side, q, &s);
                 return (seen + throughput * l, false);
             }
             FACE_MIRROR if depth < MAX_DEPTH => {
-                throughput *= specular_reflectance(lf, offsets, face, uv);
+                throughput *= specular_reflectance(lf, lookup, face, &s);
                 let side = if n.dot(-dir) > 0.0 { n } else { -n };
-                dir = (dir - 2.0 * dir.dot(n) * n).normalize();
+                let (ns, smooth) = shading_normal(lookup, face, &s, side);
+                dir = (dir - 2.0 * dir.dot(ns) * ns).normalize();
+                if smooth && dir.dot(side) <= 0.0 {
+                    return (Vec3::ZERO, false);
+                }
                 origin = offset_ray_origin(q, side);
                 depth += 1;
             }

@@ -12,7 +12,10 @@
 //!    marking the pixels whose visible face is textured or a mirror (so that pass 5 runs
 //!    texture code and mirror code for those only).
 //! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
-//!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`).
+//!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`); for
+//!    light fields with per-corner attributes (shading normals, vertex colours, `TEXCOORD_1`)
+//!    a second draw ([`position::AttributesPass`]) interpolates those into two `Rgba32Float`
+//!    targets.
 //! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
 //!    point towards the camera: emission and base-colour texture at the pixel's uv applied to
 //!    the atlas irradiance on the side facing the camera (`Le + ρ_d/π · E`), plus, for mirror
@@ -53,6 +56,7 @@
 //! the pass's own resources, group 2 = the mirror tiles (pass 5, `common/mirror_tiles.wgsl`).
 //! Everything is labelled `"PassName::thing"`.
 
+pub mod attributes;
 pub mod barycentrics;
 pub mod camera;
 pub mod direction_ids;
@@ -79,7 +83,7 @@ use display::DisplayPass;
 use face_id::FaceIdPass;
 use final_radiance::FinalRadiancePass;
 use mirror_trace::GpuMirrorScene;
-use position::PositionPass;
+use position::{AttributesPass, PositionPass};
 use targets::Targets;
 use timing::{FrameTimestamps, GpuTimer};
 use upload::GpuLightField;
@@ -180,7 +184,23 @@ pub struct FrameData {
     pub position: Vec<[f32; 4]>,
     /// Pass 4's uv (meaningful only where a face is seen).
     pub uv: Vec<[f32; 2]>,
+    /// Pass 4b's attribute targets, `[normal xyz, TEXCOORD_1 u]` and the packed words
+    /// (`targets::ATTRIBUTE_WORDS_FORMAT`) (meaningful only where a face is seen; empty without
+    /// attributes).
+    pub attributes: (Vec<[f32; 4]>, Vec<[u32; 4]>),
     pub radiance: Vec<[f32; 4]>,
+}
+
+impl FrameData {
+    /// What pass 5 read at pixel `i` besides its position: pass 4's uv and pass 4b's
+    /// attributes, where there are ([`final_radiance::PixelSurface::from_targets`]).
+    pub fn surface(&self, i: usize) -> final_radiance::PixelSurface {
+        final_radiance::PixelSurface::from_targets(
+            self.uv[i],
+            self.attributes.0.get(i).copied(),
+            self.attributes.1.get(i).copied(),
+        )
+    }
 }
 
 /// Which of the optional passes before pass 5 a frame runs (pass 3 always runs).
@@ -240,6 +260,8 @@ pub struct Renderer {
     barycentrics: BarycentricsPass,
     face_id: FaceIdPass,
     position: PositionPass,
+    /// Pass 4b, for light fields with per-corner attributes.
+    attributes: Option<AttributesPass>,
     final_radiance: FinalRadiancePass,
     display: DisplayPass,
     frame: Option<Frame>,
@@ -259,6 +281,7 @@ impl Renderer {
         let mirror_scene = GpuMirrorScene::new(device, lf)?;
         let mirrors = mirror_trace::has_mirrors(lf);
         let textures = final_radiance::TextureKinds::of(lf);
+        let attributes = light_field.has_attributes;
         let depth_format = if (textures.any() || mirrors)
             && device
                 .features()
@@ -304,11 +327,14 @@ impl Renderer {
             barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
             face_id: FaceIdPass::new(device, &globals_layout, &light_field, depth_format),
             position: PositionPass::new(device, &globals_layout, &light_field, depth_format),
+            attributes: attributes
+                .then(|| AttributesPass::new(device, &globals_layout, &light_field, depth_format)),
             final_radiance: FinalRadiancePass::new(
                 device,
                 &globals_layout,
                 textures,
                 mirrors,
+                attributes,
                 depth_format,
                 light_field.has_masks,
             ),
@@ -366,8 +392,11 @@ impl Renderer {
 
     /// Bytes of the per-view targets (0 before the first frame).
     pub fn target_bytes(&self) -> u64 {
+        let attributes = if self.attributes.is_some() { 2 * 16 } else { 0 };
         self.frame.as_ref().map_or(0, |f| {
-            u64::from(f.targets.width) * u64::from(f.targets.height) * (16 * 5 + 4 + 4 + 8)
+            u64::from(f.targets.width)
+                * u64::from(f.targets.height)
+                * (16 * 5 + 4 + 4 + 8 + attributes)
         })
     }
 
@@ -398,7 +427,13 @@ impl Renderer {
         {
             return Ok(());
         }
-        let targets = Targets::new(device, width, height, self.depth_format)?;
+        let targets = Targets::new(
+            device,
+            width,
+            height,
+            self.depth_format,
+            self.attributes.is_some(),
+        )?;
         let final_bind_group = self.final_radiance.bind(
             device,
             &targets,
@@ -469,6 +504,9 @@ impl Renderer {
         self.face_id.encode(encoder, g, tg, lf, stamps.writes(2));
         if passes.position {
             self.position.encode(encoder, g, tg, lf, stamps.writes(3));
+            if let Some(a) = &self.attributes {
+                a.encode(encoder, g, tg, lf);
+            }
         }
     }
 
@@ -559,6 +597,14 @@ impl Renderer {
             face_id: targets::read_texture(d, q, &t.face_id, 4)?,
             position: targets::read_texture(d, q, &t.position, 16)?,
             uv: targets::read_texture(d, q, &t.uv, 8)?,
+            attributes: if self.attributes.is_some() {
+                (
+                    targets::read_texture(d, q, &t.attributes[0], 16)?,
+                    targets::read_texture(d, q, &t.attributes[1], 16)?,
+                )
+            } else {
+                (Vec::new(), Vec::new())
+            },
             radiance: targets::read_texture(d, q, &t.radiance, 16)?,
         })
     }

@@ -12,6 +12,13 @@ pub const FACE_ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Pass 4's second output: `TEXCOORD_0` of the visible point (undefined where no face is seen).
 pub const UV_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
+/// Pass 4b's attribute outputs (light fields with per-corner attributes only, see
+/// [`super::position::AttributesPass`]): `[shading normal xyz, TEXCOORD_1 u]` of the visible
+/// point, and its other attributes packed into words ([`ATTRIBUTE_WORDS_FORMAT`]: `TEXCOORD_1`
+/// v, then vertex colour and irradiance correction as f16 pairs, `shaders/common/
+/// surface_attributes.wgsl`).
+pub const ATTRIBUTES_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub const ATTRIBUTE_WORDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 /// Pass 5 output: radiance of the current sample (rgb), a = 1 where a face is seen.
 pub const RADIANCE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Depth of passes 3–4 (reverse-Z: cleared to 0, greater is nearer).
@@ -41,6 +48,11 @@ pub struct Targets {
     pub position_view: wgpu::TextureView,
     pub uv: wgpu::Texture,
     pub uv_view: wgpu::TextureView,
+    /// Pass 4b's attribute targets ([`ATTRIBUTES_FORMAT`], [`ATTRIBUTE_WORDS_FORMAT`]; one texel
+    /// where the light field has
+    /// no per-corner attributes).
+    pub attributes: [wgpu::Texture; 2],
+    pub attributes_view: [wgpu::TextureView; 2],
     pub depth_view: wgpu::TextureView,
     /// Pass 5 output: radiance of the current sample.
     pub radiance: wgpu::Texture,
@@ -52,12 +64,13 @@ pub struct Targets {
 
 impl Targets {
     /// Targets of `width × height` with a depth buffer of `depth_format` ([`DEPTH_FORMAT`] or
-    /// [`DEPTH_STENCIL_FORMAT`]).
+    /// [`DEPTH_STENCIL_FORMAT`]), and attribute targets of that size when `attributes`.
     pub fn new(
         device: &wgpu::Device,
         width: u32,
         height: u32,
         depth_format: wgpu::TextureFormat,
+        attributes: bool,
     ) -> Result<Self, RenderError> {
         let max = device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
@@ -72,7 +85,7 @@ impl Targets {
                 limit: max_binding,
             });
         }
-        let texture = |label: &str, format| {
+        let sized = |label: &str, format, (width, height): (u32, u32)| {
             let written = wgpu::TextureUsages::RENDER_ATTACHMENT;
             let usage =
                 written | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
@@ -96,6 +109,14 @@ impl Targets {
             });
             (t, v)
         };
+        let texture = |label: &str, format| sized(label, format, (width, height));
+        let attr_size = if attributes { (width, height) } else { (1, 1) };
+        let (a0, a0_view) = sized("Position::attributes_target", ATTRIBUTES_FORMAT, attr_size);
+        let (a1, a1_view) = sized(
+            "Position::attribute_words_target",
+            ATTRIBUTE_WORDS_FORMAT,
+            attr_size,
+        );
         let (direction_ids, direction_ids_view) =
             texture("DirectionIds::target", DIRECTION_IDS_FORMAT);
         let (barycentrics, barycentrics_view) =
@@ -124,6 +145,8 @@ impl Targets {
             position_view,
             uv,
             uv_view,
+            attributes: [a0, a1],
+            attributes_view: [a0_view, a1_view],
             depth_view,
             radiance,
             radiance_view,

@@ -1,6 +1,6 @@
 use super::upload::{
-    ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_DIFFUSE, FLAG_EMISSIVE,
-    FLAG_EMISSIVE_TEXTURE, FLAG_PANE,
+    ATLAS_WIDTH, FACE_RECORD_TEXELS, FACES_PER_ROW, FLAG_BASE_TEXTURE, FLAG_BASE_UV1, FLAG_COLORS,
+    FLAG_DIFFUSE, FLAG_EMISSIVE, FLAG_EMISSIVE_TEXTURE, FLAG_EMISSIVE_UV1, FLAG_PANE, FLAG_SMOOTH,
 };
 use crate::shaders::{self, constant};
 use vlf_core::scene::WrapMode;
@@ -22,6 +22,10 @@ fn shader_layout_constants_match_rust() {
         ("FLAG_EMISSIVE", FLAG_EMISSIVE),
         ("FLAG_EMISSIVE_TEXTURE", FLAG_EMISSIVE_TEXTURE),
         ("FLAG_PANE", FLAG_PANE),
+        ("FLAG_SMOOTH", FLAG_SMOOTH),
+        ("FLAG_COLORS", FLAG_COLORS),
+        ("FLAG_BASE_UV1", FLAG_BASE_UV1),
+        ("FLAG_EMISSIVE_UV1", FLAG_EMISSIVE_UV1),
         ("WRAP_REPEAT", WrapMode::Repeat.id()),
         ("WRAP_CLAMP_TO_EDGE", WrapMode::ClampToEdge.id()),
         ("WRAP_MIRRORED_REPEAT", WrapMode::MirroredRepeat.id()),

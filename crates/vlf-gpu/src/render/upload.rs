@@ -32,6 +32,12 @@
 //!   panes ([`FLAG_DIFFUSE`] and the other flags) and 7 only for non-diffuse faces: the
 //!   reflectance for the visible one and for mirrors along a traced chain, α for the visible
 //!   one ([`super::mirror_trace`]).
+//! * Per-corner attributes (light fields with shading normals, vertex colours or a texture read
+//!   with `TEXCOORD_1`; [`super::attributes`]): a storage buffer of two `vec4` per triangle
+//!   corner, `[n.xyz, t.x]`, `[c.rgb, t.y]` (shading normal, zero on flat triangles; vertex
+//!   colour, white without; `TEXCOORD_1`), six per triangle in the light field's triangle order;
+//!   the uploaded triangles name their index there in their first padding word. Read by
+//!   vertex shaders and, along mirror chains, by pass 5. Face flags say which faces need them.
 //! * Textures: records (`Rgba32Uint`, one texel per texture: first texel, width, height,
 //!   wrap_s | wrap_t << 4, the wrap ids of the file) and texels ([`ATLAS_WIDTH`] wide,
 //!   `Rgba16Float`: `Shading::texels`, all textures one after another, uploaded like the f16
@@ -53,6 +59,7 @@ use vlf_core::lightfield::{
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
+use super::attributes::{ATTRIBUTE_ENTRIES, attribute_flags, corner_attributes, has_attributes};
 use super::targets::{MIRROR_STENCIL, TEXTURED_STENCIL};
 use super::texture_entry;
 
@@ -69,8 +76,10 @@ pub const FLAG_DIFFUSE: u32 = 0x100;
 pub const FLAG_BASE_TEXTURE: u32 = 0x200;
 pub const FLAG_EMISSIVE: u32 = 0x400;
 pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
+/// The per-corner attribute flags of a face, above these (`super::attributes`).
+pub use super::attributes::{FLAG_BASE_UV1, FLAG_COLORS, FLAG_EMISSIVE_UV1, FLAG_SMOOTH};
 /// The face is a thin glass pane (its material's pane weight and IOR in texel 6).
-pub const FLAG_PANE: u32 = 0x1000;
+pub const FLAG_PANE: u32 = 0x10000;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
@@ -91,6 +100,9 @@ pub struct GpuLightField {
     pub alpha_masks: wgpu::Buffer,
     /// Whether a triangle has a mask (else the passes' mask code is not compiled in).
     pub has_masks: bool,
+    /// Per-corner attributes ([`corner_attributes`]; a dummy without), and whether there are.
+    pub attributes: wgpu::Buffer,
+    pub has_attributes: bool,
     /// Face records (see the module docs).
     pub faces_view: wgpu::TextureView,
     /// The irradiance atlas (see the module docs).
@@ -276,12 +288,17 @@ pub fn is_textured(m: &SurfaceMaterial) -> bool {
     face_flags(m) & (FLAG_BASE_TEXTURE | FLAG_EMISSIVE_TEXTURE) != 0
 }
 
-/// The face record texels of `f` with its material `m` (see the module docs).
-pub fn face_record(f: &BakeFace, m: &SurfaceMaterial) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
+/// The face record texels of `f` with its material `m` and attribute flags `attrs` (see the
+/// module docs and [`super::attributes::attribute_flags`]).
+pub fn face_record(
+    f: &BakeFace,
+    m: &SurfaceMaterial,
+    attrs: u32,
+) -> [[u32; 4]; FACE_RECORD_TEXELS as usize] {
     let b = |v: [f32; 3], w: u32| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits(), w];
     let rho = rho_over_pi(m);
     [
-        b(f.normal, f.kind | face_flags(m)),
+        b(f.normal, f.kind | face_flags(m) | attrs),
         b(f.origin, f.texel_size.to_bits()),
         b(f.u, f.width),
         b(f.v, f.height),
@@ -367,8 +384,9 @@ impl GpuLightField {
                 .position(|&i| stencil(&lf.triangles[i]) >= s)
                 .unwrap_or(order.len()) as u32
         });
-        // `_pad0` (written 0 in files, unused by the bake) carries the triangle's index in the
-        // light field: the alpha masks are in that order.
+        // Each uploaded triangle names its index in the light field in its first padding word
+        // (`_pad0`, written 0 in files, unused by the bake): its per-corner attributes and the
+        // alpha masks are in that order.
         let tris: Vec<BakeTriangle> = order
             .iter()
             .map(|&i| BakeTriangle {
@@ -402,11 +420,20 @@ impl GpuLightField {
         let sphere_vertices = buffer("Renderer::sphere_vertices", bytemuck::cast_slice(&verts))?;
         let sphere_triangles = buffer("Renderer::sphere_triangles", bytemuck::cast_slice(&tris))?;
         let uvs = buffer("Renderer::uvs", bytemuck::cast_slice(&corner_uvs))?;
+        let has_attributes = has_attributes(lf);
+        let attrs = if has_attributes {
+            corner_attributes(lf)
+        } else {
+            Vec::new()
+        };
+        let attributes = buffer("Renderer::attributes", bytemuck::cast_slice(&attrs))?;
 
+        let flags = attribute_flags(lf);
         let records: Vec<[u32; 4]> = lf
             .faces
             .iter()
-            .flat_map(|f| face_record(f, &sh.materials[f.material as usize]))
+            .zip(&flags)
+            .flat_map(|(f, fl)| face_record(f, &sh.materials[f.material as usize], *fl))
             .collect();
         let faces_view = wrapped_texture(
             device,
@@ -498,6 +525,8 @@ impl GpuLightField {
             uvs,
             alpha_masks,
             has_masks,
+            attributes,
+            has_attributes,
             faces_view,
             atlas_view,
             texture_records_view,
@@ -678,7 +707,7 @@ fn banded_texture(
 fn validate(lf: &LightField) -> Result<(), RenderError> {
     let invalid = |msg: String| Err(RenderError::InvalidLightField(msg));
     if lf.faces.len() >= u32::MAX as usize / FACE_RECORD_TEXELS as usize
-        || lf.triangles.len() > (u32::MAX / 3) as usize
+        || lf.triangles.len() > (u32::MAX / ATTRIBUTE_ENTRIES as u32) as usize
         || lf.irradiance.len() > u32::MAX as usize
         || lf.shading.texels.len() > u32::MAX as usize
     {

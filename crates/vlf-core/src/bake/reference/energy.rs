@@ -14,7 +14,7 @@ use crate::psf::PsfGrid;
 pub struct EnergyStats {
     /// Σ π·L_e·area of emitting texels.
     pub emitted: f64,
-    /// Power received directly from the sky and suns (first iteration).
+    /// Power received directly from the sky, suns, point and spot lights (first iteration).
     pub injected: f64,
     /// Power absorbed by surfaces, all iterations.
     pub absorbed: f64,
@@ -133,6 +133,11 @@ pub struct TexelAccum {
 /// `unresolved` (per face, or empty for none): the share of a face's specular part that its
 /// tiles cannot receive because rays reach the face in only some directions
 /// (`SpecularSetup::unresolved`); it leaves with the diffuse part, the rest through the tiles.
+///
+/// `punctual` (first iteration): the irradiance of the point and spot lights per texel
+/// ([`crate::bake::punctual::injected_irradiance`]), added to what arrived. It leaves
+/// diffusely only: no tile carries a lamp's reflection, so the specular part of it on a
+/// mirror or glossy face is counted as absorbed.
 #[allow(clippy::too_many_arguments)]
 pub fn finish_iteration(
     scene: &BakeScene,
@@ -141,6 +146,7 @@ pub fn finish_iteration(
     acc: &[TexelAccum],
     unshot: &[[f32; 4]],
     sky: Vec3,
+    punctual: Option<&[[f32; 4]]>,
     next: &mut [[f32; 4]],
     irradiance: &mut [[f32; 4]],
 ) -> IterationEnergy {
@@ -152,13 +158,19 @@ pub fn finish_iteration(
         let u = Vec4::from(unshot[t]).truncate();
         e.sent += sum3(u) * std::f64::consts::PI * area;
         let a = acc[t];
-        if area <= 0.0 || a.irradiance.w <= 0.0 {
+        let e_lamp = punctual.map_or(Vec3::ZERO, |p| Vec4::from(p[t]).truncate());
+        // A texel no direction's rays reached still receives the lamps' light.
+        if area <= 0.0 || (a.irradiance.w <= 0.0 && e_lamp == Vec3::ZERO) {
             next[t] = [0.0; 4];
             continue;
         }
-        let k = std::f32::consts::PI / a.irradiance.w;
+        let k = if a.irradiance.w > 0.0 {
+            std::f32::consts::PI / a.irradiance.w
+        } else {
+            0.0
+        };
         let e_surf = a.irradiance.truncate() * k;
-        let e_inj = sky * (a.open.w * k) + a.open.truncate();
+        let e_inj = sky * (a.open.w * k) + a.open.truncate() + e_lamp;
         let irr = e_surf + e_inj;
         irradiance[t] = (Vec4::from(irradiance[t]) + irr.extend(0.0)).into();
         let total = lum(Vec4::from(irradiance[t]).truncate());
@@ -175,7 +187,7 @@ pub fn finish_iteration(
             rho_s *= 1.0 - u;
         }
         let b = rho * irr;
-        let spec = rho_s * irr;
+        let spec = rho_s * (irr - e_lamp);
         next[t] = (b / std::f32::consts::PI).extend(0.0).into();
         e.received += sum3(e_surf) * area;
         e.injected += sum3(e_inj) * area;

@@ -68,12 +68,12 @@ pub const MIN_COS: f32 = 1e-6;
 #[derive(Clone, Debug)]
 pub struct Propagated {
     /// Total irradiance per texel (rgb, a = 0), all iterations: what arrived at each texel side
-    /// from surfaces, sky and suns. The light field stores it (the renderer applies albedo and
+    /// from surfaces, sky, suns, point and spot lights. The light field stores it (the renderer applies albedo and
     /// emission per pixel); the final gather reads the converged field through it. The
     /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it.
     pub irradiance: Vec<[f32; 4]>,
-    /// The irradiance of the first iteration alone (light straight from emitters, sky and
-    /// suns), where the propagation kept it: the final gather replaces it by its own direct
+    /// The irradiance of the first iteration alone (light straight from emitters, sky, suns,
+    /// point and spot lights), where the propagation kept it: the final gather replaces it by its own direct
     /// light, sampled by rays, where its gather rays read the field (`docs/GATHER.md`).
     pub first_bounce: Option<Vec<[f32; 4]>>,
     /// Sparse tiles of non-diffuse faces and their total outgoing radiance (specular part).
@@ -218,6 +218,7 @@ pub fn propagate_with(
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
     let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some()));
+    let punctual = crate::bake::punctual::injected_irradiance(scene, threads);
     let mut next = vec![[0f32; 4]; n_tex];
     let mut irradiance = vec![[0f32; 4]; n_tex];
     let tile_len = spec.as_ref().map_or(0, |s| s.index.value_len());
@@ -280,6 +281,7 @@ pub fn propagate_with(
             &acc,
             unshot,
             sky,
+            punctual.as_deref().filter(|_| first),
             &mut next,
             &mut irradiance,
         );

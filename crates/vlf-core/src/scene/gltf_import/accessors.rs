@@ -21,6 +21,11 @@ pub(super) struct AccessorData {
 }
 
 impl AccessorData {
+    /// Whether integer components are normalised (`accessor.normalized`).
+    pub(super) fn normalized(&self) -> bool {
+        self.normalized
+    }
+
     pub(super) fn count(&self) -> usize {
         self.values.len() / self.comps.max(1)
     }

@@ -74,6 +74,13 @@ impl Importer<'_> {
             Some(info) => Some(self.texture_ref(info, &format!("{el} emissiveTexture"))?),
             None => None,
         };
+        // Not a warning (every normal-mapped scene would warn): `vlf-bake inspect` lists them.
+        if m.normal_texture.is_some() {
+            log::info!(
+                "{el}: normalTexture is ignored (a normal map needs irradiance per direction, which the atlas does not store)"
+            );
+            self.ignored_normal_maps.push(i as u32);
+        }
         Ok(Material {
             name: m.name.clone().unwrap_or_else(|| format!("material {i}")),
             base_color: Vec3::from_array(base),
@@ -182,7 +189,7 @@ impl Importer<'_> {
             ];
             let pane = exts.contains_key("KHR_materials_transmission");
             for name in exts.keys() {
-                if !modelled.contains(&name.as_str()) && !(pane && name == "KHR_materials_volume") {
+                if !(modelled.contains(&name.as_str()) || pane && name == "KHR_materials_volume") {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }
@@ -225,17 +232,17 @@ impl Importer<'_> {
 
     fn texture_ref(&mut self, info: &json::texture::Info, el: &str) -> Result<TexRef, SceneError> {
         let ti = info.index.value();
-        if info.tex_coord != 0 {
+        let texcoord = if info.tex_coord > 1 {
             self.warn(format!(
-                "{el}: uses TEXCOORD_{} but only TEXCOORD_0 is imported; sampled with TEXCOORD_0",
+                "{el}: uses TEXCOORD_{} but only TEXCOORD_0 and TEXCOORD_1 are imported; sampled with TEXCOORD_0",
                 info.tex_coord
             ));
-        }
+            0
+        } else {
+            info.tex_coord
+        };
         if let Some(&index) = self.texture_of_gltf.get(&ti) {
-            return Ok(TexRef {
-                index,
-                texcoord: info.tex_coord,
-            });
+            return Ok(TexRef { index, texcoord });
         }
         let tex = self.root.textures.get(ti).cloned().ok_or_else(|| {
             self.invalid(
@@ -356,10 +363,7 @@ impl Importer<'_> {
             gltf_texture: ti as u32,
         });
         self.texture_of_gltf.insert(ti, index);
-        Ok(TexRef {
-            index,
-            texcoord: info.tex_coord,
-        })
+        Ok(TexRef { index, texcoord })
     }
 
     pub(super) fn default_material(&mut self) -> u32 {

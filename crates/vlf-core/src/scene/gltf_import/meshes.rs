@@ -14,9 +14,19 @@ use crate::scene::{MAX_TRIANGLES, SceneError};
 pub(super) struct DecodedPrimitive {
     positions: Vec<DVec3>,
     uvs: Option<Vec<Vec2>>,
+    uvs1: Option<Vec<Vec2>>,
+    /// `NORMAL`s in the mesh's frame, as read (unchecked: the checks need the world
+    /// transform and the triangle).
+    normals: Option<Vec<DVec3>>,
+    /// `COLOR_0` (rgb, finite, clamped to [0, 1]).
+    colors: Option<Vec<Vec3>>,
     triangles: Vec<[u32; 3]>,
     material: u32,
 }
+
+/// Below this dot product with its triangle's geometric normal a shading normal is on the
+/// back of the triangle (or perpendicular to it) and is replaced by the geometric normal.
+const MIN_NORMAL_DOT: f64 = 0.0;
 
 impl Importer<'_> {
     /// Decodes mesh `mi` primitive `pi` once; `None` when it is skipped (points/lines).
@@ -98,38 +108,79 @@ impl Importer<'_> {
             positions.push(p);
         }
         drop(pos);
-        let uvs = match prim.attributes.get(&Checked::Valid(Semantic::TexCoords(0))) {
+        let uvs = self.texcoords(&el, &prim, 0, vertex_count)?;
+        let uvs1 = self.texcoords(&el, &prim, 1, vertex_count)?;
+        let normals = match prim.attributes.get(&Checked::Valid(Semantic::Normals)) {
             None => None,
-            Some(ti) => {
-                let uv = self.read_accessor(&format!("{el} TEXCOORD_0"), ti.value())?;
-                if uv.comps != 2 {
+            Some(ni) => {
+                let n = self.read_accessor(&format!("{el} NORMAL"), ni.value())?;
+                if n.comps != 3 {
                     return Err(self.invalid(
-                        format!("{el} TEXCOORD_0: accessor {}", ti.value()),
-                        "must be of type VEC2",
+                        format!("{el} NORMAL: accessor {}", ni.value()),
+                        "must be of type VEC3",
                     ));
                 }
-                if uv.count() < vertex_count {
+                if n.count() < vertex_count {
                     self.warn(format!(
-                        "{el}: TEXCOORD_0 has {} elements for {vertex_count} vertices; texture coordinates ignored",
-                        uv.count()
+                        "{el}: NORMAL has {} elements for {vertex_count} vertices; normals ignored (shaded flat)",
+                        n.count()
                     ));
                     None
                 } else {
-                    let mut bad = 0usize;
-                    let list: Vec<Vec2> = (0..vertex_count)
+                    Some(
+                        (0..vertex_count)
+                            .map(|v| {
+                                DVec3::new(n.attribute(v, 0), n.attribute(v, 1), n.attribute(v, 2))
+                            })
+                            .collect(),
+                    )
+                }
+            }
+        };
+        let colors = match prim.attributes.get(&Checked::Valid(Semantic::Colors(0))) {
+            None => None,
+            Some(ci) => {
+                let c = self.read_accessor(&format!("{el} COLOR_0"), ci.value())?;
+                use json::accessor::ComponentType as C;
+                let normalized_int = matches!(c.component, C::U8 | C::U16) && c.normalized();
+                if !(c.comps == 3 || c.comps == 4) || !(c.component == C::F32 || normalized_int) {
+                    return Err(self.invalid(
+                        format!("{el} COLOR_0: accessor {}", ci.value()),
+                        "must be VEC3 or VEC4 of float, or of normalized unsigned byte or short",
+                    ));
+                }
+                if c.count() < vertex_count {
+                    self.warn(format!(
+                        "{el}: COLOR_0 has {} elements for {vertex_count} vertices; vertex colours ignored",
+                        c.count()
+                    ));
+                    None
+                } else {
+                    let (mut bad, mut clamped) = (0usize, 0usize);
+                    let list: Vec<Vec3> = (0..vertex_count)
                         .map(|v| {
-                            let t = Vec2::new(uv.attribute(v, 0) as f32, uv.attribute(v, 1) as f32);
-                            if t.is_finite() {
-                                t
-                            } else {
-                                bad += 1;
-                                Vec2::ZERO
-                            }
+                            Vec3::from_array([0, 1, 2].map(|k| {
+                                let x = c.attribute(v, k) as f32;
+                                if !x.is_finite() {
+                                    bad += 1;
+                                    1.0
+                                } else if !(0.0..=1.0).contains(&x) {
+                                    clamped += 1;
+                                    x.clamp(0.0, 1.0)
+                                } else {
+                                    x
+                                }
+                            }))
                         })
                         .collect();
                     if bad > 0 {
                         self.warn(format!(
-                            "{el}: {bad} non-finite texture coordinates replaced by (0, 0)"
+                            "{el}: {bad} non-finite COLOR_0 components replaced by 1"
+                        ));
+                    }
+                    if clamped > 0 {
+                        self.warn(format!(
+                            "{el}: {clamped} COLOR_0 components outside [0, 1] clamped"
                         ));
                     }
                     Some(list)
@@ -204,9 +255,66 @@ impl Importer<'_> {
         Ok(Some(DecodedPrimitive {
             positions,
             uvs,
+            uvs1,
+            normals,
+            colors,
             triangles,
             material,
         }))
+    }
+
+    /// `TEXCOORD_<set>` of a primitive with `vertex_count` vertices: `None` when absent or too
+    /// short (with a warning); non-finite values read 0 (with a warning).
+    fn texcoords(
+        &mut self,
+        el: &str,
+        prim: &json::mesh::Primitive,
+        set: u32,
+        vertex_count: usize,
+    ) -> Result<Option<Vec<Vec2>>, SceneError> {
+        use json::mesh::Semantic;
+        let Some(ti) = prim
+            .attributes
+            .get(&Checked::Valid(Semantic::TexCoords(set)))
+        else {
+            return Ok(None);
+        };
+        let name = format!("TEXCOORD_{set}");
+        let uv = self.read_accessor(&format!("{el} {name}"), ti.value())?;
+        if uv.comps != 2 {
+            return Err(self.invalid(
+                format!("{el} {name}: accessor {}", ti.value()),
+                "must be of type VEC2",
+            ));
+        }
+        if uv.count() < vertex_count {
+            self.warn(format!(
+                "{el}: {name} has {} elements for {vertex_count} vertices; texture coordinates ignored",
+                uv.count()
+            ));
+            return Ok(None);
+        }
+        let mut bad = 0usize;
+        let list: Vec<Vec2> = (0..vertex_count)
+            .map(|v| {
+                let t = Vec2::new(uv.attribute(v, 0) as f32, uv.attribute(v, 1) as f32);
+                if t.is_finite() {
+                    t
+                } else {
+                    bad += 1;
+                    Vec2::ZERO
+                }
+            })
+            .collect();
+        if bad > 0 {
+            let what = if set == 0 {
+                "texture coordinates".to_string()
+            } else {
+                name
+            };
+            self.warn(format!("{el}: {bad} non-finite {what} replaced by (0, 0)"));
+        }
+        Ok(Some(list))
     }
 
     /// Appends the world-space triangles of mesh `mi` instanced by node `el`.
@@ -228,6 +336,8 @@ impl Importer<'_> {
             ));
         }
         let flip = world.determinant() < 0.0;
+        // Normals transform with the inverse transpose of the linear part.
+        let normal_matrix = glam::DMat3::from_mat4(*world).inverse().transpose();
         for pi in 0..self.root.meshes[mi].primitives.len() {
             let Some(prim) = self.primitive(mi, pi)? else {
                 continue;
@@ -249,6 +359,11 @@ impl Importer<'_> {
                 )
             };
             let mut world_pos: Vec<Option<Vec3>> = vec![None; prim.positions.len()];
+            let world_normals: Option<Vec<DVec3>> = prim
+                .normals
+                .as_ref()
+                .map(|ns| ns.iter().map(|&n| normal_matrix * n).collect());
+            let mut repaired = 0usize;
             for tri in &prim.triangles {
                 let mut p = [Vec3::ZERO; 3];
                 for k in 0..3 {
@@ -279,18 +394,73 @@ impl Importer<'_> {
                     Some(uvs) => tri.map(|v| uvs[v as usize]),
                     None => [Vec2::ZERO; 3],
                 };
+                let mut uv1 = prim.uvs1.as_ref().map(|u| tri.map(|v| u[v as usize]));
+                let mut colors = prim.colors.as_ref().map(|c| tri.map(|v| c[v as usize]));
+                let mut normals = world_normals.as_ref().map(|n| tri.map(|v| n[v as usize]));
                 if flip {
                     p.swap(1, 2);
                     uv.swap(1, 2);
+                    if let Some(u) = uv1.as_mut() {
+                        u.swap(1, 2);
+                    }
+                    if let Some(c) = colors.as_mut() {
+                        c.swap(1, 2);
+                    }
+                    if let Some(n) = normals.as_mut() {
+                        n.swap(1, 2);
+                    }
                 }
+                let normals = normals.and_then(|n| shading_normals(&p, n, &mut repaired));
+                // All white is no colour at all.
+                let colors = colors.filter(|c| c.iter().any(|c| *c != Vec3::ONE));
                 raw.push(RawTriangle {
                     p,
                     uv,
                     material: prim.material,
+                    normals,
+                    colors,
+                    uv1,
                 });
                 raw_source.push(src);
+            }
+            if repaired > 0 {
+                self.warn(format!(
+                    "{}: {repaired} NORMAL{} not finite, zero or facing away from their triangle; replaced by the triangle's geometric normal",
+                    prim_el(),
+                    if repaired == 1 { " is" } else { "s are" }
+                ));
             }
         }
         Ok(())
     }
+}
+
+/// The unit shading normals of world triangle `p` from its world corner normals `n` (not
+/// normalised): renormalised; those that are not finite, zero or facing away from the
+/// triangle (dot with its geometric normal ≤ [`MIN_NORMAL_DOT`]) replaced by the geometric
+/// normal and counted in `repaired`. `None` when the triangle is flat: all three within
+/// 0.08° ([`FACE_COS_TOLERANCE`](crate::scene::FACE_COS_TOLERANCE)) of its geometric normal,
+/// or it is degenerate (it will be skipped).
+fn shading_normals(p: &[Vec3; 3], n: [DVec3; 3], repaired: &mut usize) -> Option<[Vec3; 3]> {
+    let [a, b, c] = p.map(|p| p.as_dvec3());
+    let g = (b - a).cross(c - a).normalize_or_zero();
+    if g == DVec3::ZERO {
+        return None;
+    }
+    let unit = n.map(|n| {
+        let u = n.normalize_or_zero();
+        if u.is_finite() && u != DVec3::ZERO && u.dot(g) > MIN_NORMAL_DOT {
+            u
+        } else {
+            *repaired += 1;
+            g
+        }
+    });
+    if unit
+        .iter()
+        .all(|u| u.dot(g) > crate::scene::FACE_COS_TOLERANCE)
+    {
+        return None;
+    }
+    Some(unit.map(|u| u.as_vec3()))
 }

@@ -80,6 +80,8 @@ struct Importer<'a> {
     sources: Vec<(usize, usize)>,
     source_of: HashMap<(usize, usize), u32>,
     skipped_primitives: usize,
+    /// Materials whose `normalTexture` is ignored.
+    ignored_normal_maps: Vec<u32>,
 }
 
 /// Loads a glTF 2.0 file; see [`super::load`].
@@ -135,6 +137,7 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
         sources: Vec::new(),
         source_of: HashMap::new(),
         skipped_primitives: 0,
+        ignored_normal_maps: Vec::new(),
     };
     imp.check_asset_and_extensions()?;
     imp.load_buffers(bin)?;

@@ -1,4 +1,4 @@
-//! The node hierarchy: transforms, the mesh instances, cameras and suns it places, and the
+//! The node hierarchy: transforms, the mesh instances, cameras and lights it places, and the
 //! scene they make (degenerate triangles dropped, faces built, the VLF transform fitted).
 
 use glam::{DMat4, DQuat, DVec3, Vec3};
@@ -6,7 +6,10 @@ use gltf::json::{self, validation::Checked};
 
 use super::{Importer, element};
 use crate::scene::faces::{RawTriangle, build_faces};
-use crate::scene::{Aabb, Camera, DEGENERATE_AREA_FACTOR, Scene, SceneError, Sun, fit_similarity};
+use crate::scene::{
+    Aabb, Camera, DEGENERATE_AREA_FACTOR, PunctualKind, PunctualLight, Scene, SceneError, Sun,
+    fit_similarity,
+};
 
 impl Importer<'_> {
     fn node_local(&self, ni: usize) -> Result<DMat4, SceneError> {
@@ -87,6 +90,7 @@ impl Importer<'_> {
         let mut raw_source: Vec<u32> = Vec::new();
         let mut cameras = Vec::new();
         let mut suns = Vec::new();
+        let mut lights = Vec::new();
         let mut visited = vec![false; self.root.nodes.len()];
         let mut stack: Vec<(usize, DMat4, String)> = roots
             .iter()
@@ -139,7 +143,7 @@ impl Importer<'_> {
                     &el,
                     node.name.as_ref(),
                     &world,
-                    &mut suns,
+                    (&mut suns, &mut lights),
                 )?;
             }
             for c in node.children.iter().flatten().rev() {
@@ -210,10 +214,12 @@ impl Importer<'_> {
             textures: self.textures,
             cameras,
             suns,
+            lights,
             bounds,
             to_vlf,
             warnings: self.warnings,
             source: self.path.to_path_buf(),
+            ignored_normal_maps: self.ignored_normal_maps,
         })
     }
 
@@ -291,7 +297,7 @@ impl Importer<'_> {
         node_el: &str,
         node_name: Option<&String>,
         world: &DMat4,
-        suns: &mut Vec<Sun>,
+        (suns, punctual): (&mut Vec<Sun>, &mut Vec<PunctualLight>),
     ) -> Result<(), SceneError> {
         use json::extensions::scene::khr_lights_punctual::Type;
         let lights = self
@@ -310,42 +316,110 @@ impl Importer<'_> {
             )
         })?;
         let light_el = element("light", li, light.name.as_ref());
-        match light.type_ {
-            Checked::Valid(Type::Directional) => {}
-            Checked::Valid(Type::Point) => {
-                self.warn(format!(
-                    "light {li} (point) is not supported and is ignored"
-                ));
-                return Ok(());
-            }
+        let kind = match light.type_ {
+            Checked::Valid(Type::Directional) => None,
+            Checked::Valid(Type::Point) => Some(PunctualKind::Point),
             Checked::Valid(Type::Spot) => {
-                self.warn(format!("light {li} (spot) is not supported and is ignored"));
-                return Ok(());
+                let spot = light.spot.as_ref().ok_or_else(|| {
+                    self.invalid(&light_el, "a spot light without its \"spot\" cone angles")
+                })?;
+                let (inner, outer) = (spot.inner_cone_angle, spot.outer_cone_angle);
+                let valid = inner.is_finite()
+                    && outer.is_finite()
+                    && inner >= 0.0
+                    && inner < outer
+                    && outer <= std::f32::consts::FRAC_PI_2;
+                if !valid {
+                    return Err(self.invalid(
+                        &light_el,
+                        format!(
+                            "spot cone angles innerConeAngle {inner}, outerConeAngle {outer} \
+                             must satisfy 0 ≤ inner < outer ≤ π/2"
+                        ),
+                    ));
+                }
+                Some(PunctualKind::Spot { inner, outer })
             }
             Checked::Invalid => {
                 self.warn(format!("{light_el}: invalid light type; ignored"));
                 return Ok(());
             }
-        }
+        };
         let direction = world.transform_vector3(DVec3::NEG_Z).normalize_or_zero();
-        let irradiance = Vec3::from_array(light.color) * light.intensity;
-        if direction == DVec3::ZERO || !direction.is_finite() {
-            self.warn(format!(
-                "{light_el} at {node_el}: degenerate node transform; sun ignored"
-            ));
+        let Some(kind) = kind else {
+            let irradiance = Vec3::from_array(light.color) * light.intensity;
+            if direction == DVec3::ZERO || !direction.is_finite() {
+                self.warn(format!(
+                    "{light_el} at {node_el}: degenerate node transform; sun ignored"
+                ));
+                return Ok(());
+            }
+            if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
+                self.warn(format!(
+                    "{light_el}: invalid color × intensity {:?}; sun ignored",
+                    irradiance.to_array()
+                ));
+                return Ok(());
+            }
+            suns.push(Sun {
+                name: light.name.clone().or(node_name.cloned()),
+                direction: direction.as_vec3(),
+                irradiance,
+            });
             return Ok(());
-        }
-        if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
-            self.warn(format!(
-                "{light_el}: invalid color × intensity {:?}; sun ignored",
-                irradiance.to_array()
+        };
+        // Point and spot lights: bad values are errors (a lamp silently dropped or made
+        // negative would light the scene wrongly without a word).
+        let color = Vec3::from_array(light.color);
+        if !color.is_finite() || color.min_element() < 0.0 {
+            return Err(self.invalid(
+                &light_el,
+                format!("color {:?} must be finite and non-negative", light.color),
             ));
-            return Ok(());
         }
-        suns.push(Sun {
+        if !light.intensity.is_finite() || light.intensity < 0.0 {
+            return Err(self.invalid(
+                &light_el,
+                format!(
+                    "intensity {} must be finite and non-negative",
+                    light.intensity
+                ),
+            ));
+        }
+        let intensity = color * light.intensity;
+        if !intensity.is_finite() {
+            return Err(self.invalid(
+                &light_el,
+                format!("color × intensity {:?} overflows", intensity.to_array()),
+            ));
+        }
+        if let Some(r) = light.range
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(self.invalid(&light_el, format!("range {r} must be finite and positive")));
+        }
+        let position = world.transform_point3(DVec3::ZERO);
+        if !position.is_finite() || !position.as_vec3().is_finite() {
+            return Err(self.invalid(node_el, format!("{light_el} has a non-finite position")));
+        }
+        let direction = match kind {
+            PunctualKind::Spot { .. } if direction == DVec3::ZERO || !direction.is_finite() => {
+                return Err(self.invalid(
+                    node_el,
+                    format!("degenerate node transform: {light_el} (spot) has no direction"),
+                ));
+            }
+            // A point light's direction is unused; a degenerate transform leaves it −Z.
+            _ if direction == DVec3::ZERO || !direction.is_finite() => Vec3::NEG_Z,
+            _ => direction.as_vec3(),
+        };
+        punctual.push(PunctualLight {
             name: light.name.clone().or(node_name.cloned()),
-            direction: direction.as_vec3(),
-            irradiance,
+            kind,
+            position: position.as_vec3(),
+            direction,
+            intensity,
+            range: light.range,
         });
         Ok(())
     }
