@@ -9,6 +9,7 @@
 #import "common/bake_direction.wgsl"
 #import "common/bake_scene.wgsl"
 #import "common/bake_rays.wgsl"
+#import "common/alpha_mask.wgsl"
 
 // Group 0: `dir` (common/bake_direction.wgsl).
 
@@ -18,6 +19,8 @@
 @group(1) @binding(3) var<storage, read_write> cell_count: array<u32>;
 @group(1) @binding(4) var<storage, read_write> cells: array<CellEntry>;
 @group(1) @binding(5) var<storage, read_write> overflow: array<atomic<u32>>;
+// Binding 6: `alpha_masks` (common/alpha_mask.wgsl), the triangles' alpha masks: a crossing
+// where a mask leaves no surface is not listed.
 
 fn cross2(a: vec2<f32>, b: vec2<f32>) -> f32 {
     return a.x * b.y - a.y * b.x;
@@ -67,6 +70,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             continue;
         }
         let depth = w0 * q0.z + w1 * q1.z + w2 * q2.z;
+        if (alpha_cuts(bin_tris[t], vec3<f32>(w0, w1, w2))) {
+            continue;
+        }
         let face = tri.face;
         // One crossing per face: keep the smallest (depth, face).
         var dup = count;

@@ -165,10 +165,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     if (dir.is_sun != 0u) {
         // A sun's light travels +w only: it reaches the side facing −w (side 0 when n·w < 0),
         // through the first crossing of its ray (open0 / open1 is then the "first" fraction).
+        // Through panes too: `arriving` along a sun's direction is the sun that passed them.
         if (ndw < 0.0) {
-            acc[t].open += vec4<f32>(dir.sun.xyz * (cos_t * open0), 0.0);
+            acc[t].open += vec4<f32>(dir.sun.xyz * (cos_t * open0) + arriving0 * cos_t, 0.0);
         } else {
-            acc[back].open += vec4<f32>(dir.sun.xyz * (cos_t * open1), 0.0);
+            acc[back].open += vec4<f32>(dir.sun.xyz * (cos_t * open1) + arriving1 * cos_t, 0.0);
         }
         return;
     }

@@ -3,12 +3,15 @@
 // For each crossing of a ray's depth list: the unshot radiance arriving travelling +w (from the
 // previous crossing, "below") and −w (from the next one, "above"), read from the neighbouring
 // face's atlas texel on the side facing this crossing; plus open flags: the first (last)
-// crossing is open below (above), where sky and sun enter and outgoing light escapes.
+// crossing is open below (above), where sky and sun enter and outgoing light escapes. Panes
+// (common/pane.wgsl) pass what arrives at them on along the ray, tinted by T(θ): the sky and a
+// sun through the glass included; along a sun's direction only the sun is followed.
 // Mirrors vlf_core::bake::reference::interface.
 
 #import "common/bake_direction.wgsl"
 #import "common/bake_scene.wgsl"
 #import "common/bake_rays.wgsl"
+#import "common/pane.wgsl"
 
 // Group 0: `dir` (common/bake_direction.wgsl).
 
@@ -25,6 +28,11 @@
 @group(1) @binding(6) var<storage, read> frames: array<vec4<f32>>;
 // Per ray: specular power escaping through the ray's open ends (rgb), summed over directions.
 @group(1) @binding(7) var<storage, read_write> spec_escape: array<vec4<f32>>;
+// Per face: its pane (zero without one).
+@group(1) @binding(8) var<storage, read> panes: array<PaneFace>;
+// Per ray, summed over directions: what panes absorbed (x), let escape (y) and the sunlight
+// that reached a crossing through panes (z) (vlf_core::bake::reference::PaneEnergy).
+@group(1) @binding(9) var<storage, read_write> pane_energy: array<vec4<f32>>;
 
 fn cell_at(x: f32) -> u32 {
     let nf = f32(dir.n);
@@ -110,6 +118,18 @@ fn specular_at(e: CellEntry, a: f32, b: f32, plus: bool) -> vec3<f32> {
     return specular(e.face, y, plus);
 }
 
+// Unshot radiance leaving crossing e toward·w; nothing along a sun's direction.
+fn leaving(e: CellEntry, a: f32, b: f32, toward: f32) -> vec3<f32> {
+    if (dir.is_sun != 0u) {
+        return vec3<f32>(0.0);
+    }
+    return outgoing(e, a, b, toward);
+}
+
+fn sum3(v: vec3<f32>) -> f32 {
+    return v.x + v.y + v.z;
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let c = gid.x + gid.y * nwg.x * 64u;
@@ -122,16 +142,73 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let b = -1.0 + (f32(c / n) + 0.5) * cell;
     let count = cell_count[c];
     let base = c * dir.k_max;
+    let sun = dir.is_sun != 0u;
+    let panes_on = dir.has_panes != 0u;
+    var src_up = dir.sky.xyz;
+    var src_down = dir.sky.xyz;
+    if (sun) {
+        src_up = dir.sun.xyz;
+        src_down = vec3<f32>(0.0);
+    }
+    let cell_power = cell * cell * dir.weight;
+    let sun_power = cell * cell;
+    var power = cell_power;
+    if (sun) {
+        power = sun_power;
+    }
+    var energy = vec3<f32>(0.0);
+    // Upward: what arrives at each crossing from below.
+    var carry = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         var below = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-        var above = vec4<f32>(0.0, 0.0, 0.0, 1.0);
         if (k > 0u) {
-            below = vec4<f32>(outgoing(cells[base + k - 1u], a, b, 1.0), 0.0);
+            below = vec4<f32>(leaving(cells[base + k - 1u], a, b, 1.0) + carry, 0.0);
         }
+        crossings[base + k].below = below;
+        if (panes_on) {
+            if (sun && k > 0u) {
+                energy.z += sum3(carry) * sun_power;
+            }
+            var arriving = below.xyz;
+            if (k == 0u) {
+                arriving += src_up;
+            }
+            let e = cells[base + k];
+            let p = panes[e.face];
+            let ct = abs(dot(faces[e.face].normal, dir.w.xyz));
+            carry = arriving * pane_transmittance(p, ct);
+            energy.x += (sum3(arriving) * pane_untinted(p, ct) - sum3(carry)) * power;
+            if (k + 1u == count) {
+                energy.y += sum3(carry) * power;
+            }
+        }
+    }
+    // Downward: what arrives at each crossing from above.
+    carry = vec3<f32>(0.0);
+    for (var i = 0u; i < count; i++) {
+        let k = count - 1u - i;
+        var above = vec4<f32>(0.0, 0.0, 0.0, 1.0);
         if (k + 1u < count) {
-            above = vec4<f32>(outgoing(cells[base + k + 1u], a, b, -1.0), 0.0);
+            above = vec4<f32>(leaving(cells[base + k + 1u], a, b, -1.0) + carry, 0.0);
         }
-        crossings[base + k] = Crossing(below, above);
+        crossings[base + k].above = above;
+        if (panes_on && !sun) {
+            var arriving = above.xyz;
+            if (k + 1u == count) {
+                arriving += src_down;
+            }
+            let e = cells[base + k];
+            let p = panes[e.face];
+            let ct = abs(dot(faces[e.face].normal, dir.w.xyz));
+            carry = arriving * pane_transmittance(p, ct);
+            energy.x += (sum3(arriving) * pane_untinted(p, ct) - sum3(carry)) * cell_power;
+            if (k == 0u) {
+                energy.y += sum3(carry) * cell_power;
+            }
+        }
+    }
+    if (panes_on) {
+        pane_energy[c] += vec4<f32>(energy, 0.0);
     }
     // Specular light leaving through an open end escapes (diffuse escapes are counted per
     // texel from the open fractions).

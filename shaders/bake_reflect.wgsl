@@ -110,7 +110,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let cr = crossings[k];
     var arriving: vec3<f32>;
     if (dir.is_sun != 0u) {
-        arriving = dir.sun.xyz * cr.below.w;
+        // Through its ray's open end or through panes.
+        arriving = dir.sun.xyz * cr.below.w + cr.below.xyz;
     } else if ((it.senses & 1u) == 0u) {
         arriving = cr.below.xyz + dir.sky.xyz * cr.below.w;
     } else {

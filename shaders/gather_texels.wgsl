@@ -225,13 +225,15 @@ fn to_vlf_point(p: vec3<f32>) -> vec3<f32> {
 }
 
 // The first chart triangle (index into the grid's chart triangles) of grid face `fi` holding
-// chart point c (texel units), or NONE (Charts::locate).
+// chart point c (texel units), or NONE when none does or when its alpha mask leaves no surface
+// there (Charts::locate: the first triangle that holds it decides).
 fn chart_locate(fi: u32, c: vec2<f32>) -> u32 {
     for (var t = chart_start(fi); t < chart_start(fi + 1u); t++) {
         let a = grid[gg.chart_tris + 2u * t];
         let q0 = a.xy;
         let q1 = a.zw;
-        let q2 = grid[gg.chart_tris + 2u * t + 1u].xy;
+        let b = grid[gg.chart_tris + 2u * t + 1u];
+        let q2 = b.xy;
         let e0 = q1 - q0;
         let e1 = q2 - q1;
         let e2 = q0 - q2;
@@ -239,6 +241,13 @@ fn chart_locate(fi: u32, c: vec2<f32>) -> u32 {
         let d1 = e1.x * (c - q1).y - e1.y * (c - q1).x;
         let d2 = e2.x * (c - q2).y - e2.y * (c - q2).x;
         if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
+            let sum = d0 + d1 + d2;
+            if alpha_masks[0] == 0u || sum == 0.0 {
+                return t;
+            }
+            if alpha_cuts(bitcast<u32>(b.w), vec3<f32>(d1 / sum, d2 / sum, d0 / sum)) {
+                return NONE;
+            }
             return t;
         }
     }

@@ -72,6 +72,7 @@
 #import "common/mirror_tiles.wgsl"
 #import "common/sampling.wgsl"
 #import "common/hash.wgsl"
+#import "common/pane.wgsl"
 #import "common/surface_attributes.wgsl"
 
 // Group 0: `g` (common/render_globals.wgsl). Group 1, bindings 0 and 1: the mirror-tracing
@@ -92,6 +93,7 @@ const FLAG_SMOOTH: u32 = 0x1000u;
 const FLAG_COLORS: u32 = 0x2000u;
 const FLAG_BASE_UV1: u32 = 0x4000u;
 const FLAG_EMISSIVE_UV1: u32 = 0x8000u;
+const FLAG_PANE: u32 = 0x10000u;
 // Whether the light field has per-corner attributes (see the header); false compiles their
 // reads out.
 override ATTRIBUTES: bool = false;
@@ -106,6 +108,10 @@ override SPECULAR: bool = true;
 // Whether mirror and mixed faces trace their reflection (see the header); false compiles the
 // traversal out.
 override TRACING: bool = false;
+// Whether the light field has alpha masks: fs_surface then discards the fragments they cut, as
+// passes 3 and 4 do (a masked triangle's fragment in front of what pass 3 kept would pass the
+// "greater or equal" test).
+override MASKS: bool = false;
 // Mirrors a traced chain follows, the visible one included (vlf_gpu::render::mirror_trace::
 // MAX_DEPTH, a Rust test checks).
 const MIRROR_DEPTH: u32 = 8u;
@@ -126,7 +132,10 @@ const LOBE_SAMPLES: u32 = 4u;
 // it exactly, so the shader is the same for both.
 @group(1) @binding(5) var atlas: texture_2d<f32>;
 // Mean radiance per pixel (rgb), row-major, row 0 at the top; only for sample_count > 1.
-@group(1) @binding(6) var<storage, read_write> accum: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read_write> accum: array<vec4<f32>>;
+// Binding 6: alpha_masks (common/alpha_mask.wgsl, imported with common/bvh.wgsl), the light
+// field's triangles' masks in its own order: the mirror BVH's `prim`, and the window's draws'
+// triangles by BakeTriangle::_pad0 (which the upload sets to that index).
 // Group 2: the mirror tiles (common/mirror_tiles.wgsl; see upload.rs).
 // Pass 4's second target: the visible point's TEXCOORD_0.
 @group(1) @binding(10) var uvs: texture_2d<f32>;
@@ -378,10 +387,12 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
     var dir = dir0;
     var throughput = throughput0;
     var depth = 1u;
+    // The diffuse part of panes passed on the way.
+    var seen = vec3<f32>(0.0);
     loop {
         let hit = trace(Ray(origin, 0.0, dir, 3.40282347e38), false);
         if hit.tri == NONE {
-            return vec4<f32>(throughput * g.sky.rgb, 0.0);
+            return vec4<f32>(seen + throughput * g.sky.rgb, 0.0);
         }
         let t = triangles[hit.tri];
         let hface = t.material;
@@ -391,11 +402,21 @@ fn trace_chain(origin0: vec3<f32>, dir0: vec3<f32>, throughput0: vec3<f32>) -> v
         let n = hf.normal;
         let hside = select(1u, 0u, dot(n, -dir) >= 0.0);
         let hs = chain_surface(hit, t.prim, hf, hside);
+        if (hf.flags & FLAG_PANE) != 0u && depth < MIRROR_DEPTH {
+            // A pane along the chain: its diffuse part, then on straight through it.
+            seen = seen + throughput * surface_radiance_uv(hface, hf, hside, q, hs);
+            let ior = bitcast<f32>(face_texel(hface, 6u).z);
+            throughput = throughput
+                * (specular_reflectance(hface, hf, hs) * (1.0 - pane_reflectance(dot(dir, n), ior)));
+            origin = offset_origin(q, select(-n, n, dot(n, dir) > 0.0));
+            depth += 1u;
+            continue;
+        }
         if hf.kind == FACE_DIFFUSE {
-            return vec4<f32>(throughput * surface_radiance_uv(hface, hf, hside, q, hs), 0.0);
+            return vec4<f32>(seen + throughput * surface_radiance_uv(hface, hf, hside, q, hs), 0.0);
         }
         if hf.kind != FACE_MIRROR || depth >= MIRROR_DEPTH {
-            return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+            return vec4<f32>(seen, 1.0);
         }
         throughput = throughput * specular_reflectance(hface, hf, hs);
         let off = select(-n, n, dot(n, -dir) > 0.0);
@@ -438,6 +459,16 @@ fn traced_specular(face: u32, f: Face, p: vec3<f32>, s: Surface, pixel: u32,
     let own = sn.w > 0.0;
     let c = specular_reflectance(face, f, s);
     let origin = offset_origin(p, side);
+    if (f.flags & FLAG_PANE) != 0u {
+        // A pane: its reflection (pane weight × R, untinted) and what lies behind it (c × T);
+        // the tiles stand in for the reflection only.
+        let pane = face_texel(face, 6u);
+        let r = pane_reflectance(dot(d, n), bitcast<f32>(pane.z));
+        let reflected = trace_chain(origin, normalize(d - 2.0 * dot(d, n) * n),
+            vec3<f32>(bitcast<f32>(pane.w) * r));
+        let passed = trace_chain(offset_origin(p, -side), d, c * (1.0 - r));
+        return vec4<f32>(reflected.rgb + passed.rgb, reflected.w);
+    }
     let alpha = bitcast<f32>(face_texel(face, 7u).w);
     if alpha <= 0.0 {
         let r = normalize(d - 2.0 * dot(d, ns) * ns);
@@ -550,6 +581,8 @@ struct SurfaceVertex {
     @location(9) attr_a: vec4<f32>,
     @location(10) attr_b: vec4<f32>,
     @location(11) attr_e: vec3<f32>,
+    // The triangle's index in the light field (alpha masks).
+    @location(12) @interpolate(flat) tri: u32,
 }
 
 @vertex
@@ -562,6 +595,7 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
     out.position = p;
     out.uv = surface_uvs[vi];
     out.face = face;
+    out.tri = tri._pad0;
     out.r0 = face_texel(face, 0u);
     out.r1 = face_texel(face, 1u);
     out.r2 = face_texel(face, 2u);
@@ -584,6 +618,9 @@ fn vs_surface(@builtin(vertex_index) vi: u32) -> SurfaceVertex {
 // Writes only its colour target, so the depth and stencil tests run before it.
 @fragment
 fn fs_surface(in: SurfaceVertex) -> @location(0) vec4<f32> {
+    if MASKS && alpha_cuts_uv(in.tri, in.uv) {
+        discard;
+    }
     let f = face_from_record(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
     let px = vec2<i32>(vec2<u32>(in.clip.xy));
     var s = plain_surface(in.uv);

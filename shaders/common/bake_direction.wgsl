@@ -31,7 +31,7 @@ struct BakeDirection {
     items_base: u32,
     items_count: u32,
     has_tiles: u32,
-    _pad: u32,
+    has_panes: u32,
 }
 
 @group(0) @binding(0) var<uniform> dir: BakeDirection;

@@ -3,9 +3,12 @@
 // robust slab test of Ize 2013, the watertight ray/triangle test of Woop et al. 2013.
 //
 // Bind group 1, bindings 0 and 1 of both raytrace shaders: the scene's flattened BVH and its
-// triangles (vlf_gpu::raytrace::GpuScene, uploaded unchanged from vlf_core::pathtrace::Bvh).
+// triangles (vlf_gpu::raytrace::GpuScene, uploaded unchanged from vlf_core::pathtrace::Bvh),
+// and binding 6, its alpha masks (common/alpha_mask.wgsl, looked up by RtTriangle::prim): a hit
+// where a triangle's mask leaves no surface is skipped (vlf_core::pathtrace::Bvh::traverse).
 
 #import "common/rays.wgsl"
+#import "common/alpha_mask.wgsl"
 
 // Flattened BVH node (mirrors vlf_core::pathtrace::BvhNode): a leaf when count > 0 (triangles
 // index .. index + count), otherwise children node + 1 and index.
@@ -124,8 +127,9 @@ fn trace(ray: Ray, any_hit: bool) -> Hit {
         let n = nodes[node];
         if n.count > 0u {
             for (var i = n.index; i < n.index + n.count; i++) {
-                let h = intersect(o, kz, s, triangles[i], ray.tmin, tmax);
-                if h.x >= 0.0 {
+                let tri = triangles[i];
+                let h = intersect(o, kz, s, tri, ray.tmin, tmax);
+                if h.x >= 0.0 && !alpha_cuts(tri.prim, vec3<f32>(1.0 - h.y - h.z, h.y, h.z)) {
                     best = Hit(h.x, i, h.y, h.z);
                     tmax = h.x;
                     if any_hit {

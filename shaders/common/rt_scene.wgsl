@@ -278,9 +278,14 @@ fn emitter_pdf(light: u32, dist: f32, cos_light: f32) -> f32 {
     return scene_info.p_emitters * e.z * dist * dist / (e.y * cos_light);
 }
 
-// Emitted radiance of leaf-order triangle `tri` at barycentrics (b1, b2) (front face).
+// Emitted radiance of leaf-order triangle `tri` at barycentrics (b1, b2) (front face; none
+// where its alpha mask leaves no surface).
 fn emission_at(tri: u32, b1: f32, b2: f32) -> vec3<f32> {
-    let m = material(triangles[tri].material);
+    let t = triangles[tri];
+    if alpha_cuts(t.prim, vec3<f32>(1.0 - b1 - b2, b1, b2)) {
+        return vec3<f32>(0.0);
+    }
+    let m = material(t.material);
     let uv = tri_uv_set(tri, (m.texcoords >> 1u) & 1u, b1, b2);
     return m.emission * sample_texture(m.emissive_texture, uv);
 }

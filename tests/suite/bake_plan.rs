@@ -72,8 +72,8 @@ fn gpu_bake_allocates_exactly_its_plan() {
             let plan = BakePlan::new(&prep, &set, &p, limit, cap);
             let what = format!("{asset}, {} chunk(s)", plan.chunks.len());
             assert_eq!(plan.chunks.len() > 1, cap.is_some(), "{what}");
-            // 15 whole buffers and three per chunk; labels name each once.
-            assert_eq!(plan.buffers.len(), 15 + 3 * plan.chunks.len(), "{what}");
+            // 18 whole buffers and three per chunk; labels name each once.
+            assert_eq!(plan.buffers.len(), 18 + 3 * plan.chunks.len(), "{what}");
             let mut want: Vec<_> = plan
                 .buffers
                 .iter()

@@ -25,6 +25,7 @@ fn plane(alpha: f32) -> Scene {
         kind: MaterialKind::Mirror,
         metallic: 1.0,
         roughness: alpha.sqrt(),
+        transparency: Default::default(),
     });
     b.quad(
         [
@@ -208,6 +209,7 @@ fn gpu_matches_cpu_reference_on_sub_cell_mirrors() {
         kind: MaterialKind::Mixed { specular: 0.5 },
         metallic: 0.5,
         roughness: 0.25,
+        transparency: Default::default(),
     });
     b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, wall);
     b.quad(

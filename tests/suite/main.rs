@@ -15,3 +15,4 @@ mod render_mirrors;
 mod render_textures;
 mod shading_gpu;
 mod stability_gpu;
+mod transmission_gpu;

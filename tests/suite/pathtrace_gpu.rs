@@ -211,6 +211,7 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         kind: MaterialKind::Diffuse,
         metallic: 0.0,
         roughness: 1.0,
+        transparency: Default::default(),
     };
     let floor = b.material(Material {
         base_color_texture: Some(TexRef {

@@ -53,6 +53,7 @@ fn material(
         kind: MaterialKind::Diffuse,
         metallic: 0.0,
         roughness: 1.0,
+        transparency: Default::default(),
     }
 }
 

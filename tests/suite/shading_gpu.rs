@@ -62,6 +62,7 @@ fn attribute_scene() -> Scene {
         kind: MaterialKind::Mirror,
         metallic: 1.0,
         roughness: 0.4,
+        transparency: Default::default(),
     });
     let wall = b.diffuse("wall", Vec3::splat(0.9), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));

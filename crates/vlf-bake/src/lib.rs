@@ -167,11 +167,14 @@ fn info(path: &Path, json: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// What `vlf-bake inspect --json` prints: the scene's counts and how each material shades.
+/// What `vlf-bake inspect --json` prints: the scene's counts, each material's model (lobes, mask,
+/// pane) and how it shades, and the lights.
 #[derive(serde::Serialize)]
 struct Inspection {
     #[serde(flatten)]
     summary: vlf_core::scene::SceneSummary,
+    /// (name, model) of every material ([`vlf_core::scene::Material::model`]).
+    material_models: Vec<(String, String)>,
     shading: Vec<vlf_core::scene::MaterialShading>,
     lights: Vec<LightReport>,
 }
@@ -180,6 +183,11 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
     let report = Inspection {
         summary: scene.summary(),
+        material_models: scene
+            .materials
+            .iter()
+            .map(|m| (m.name.clone(), m.model()))
+            .collect(),
         shading: scene.material_shading(),
         lights: scene.lights.iter().map(LightReport::of).collect(),
     };
@@ -189,8 +197,13 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     }
     println!("scene {}", path.display());
     println!("{}", serde_json::to_string_pretty(&report.summary)?);
-    for (i, m) in report.shading.iter().enumerate() {
-        println!("material {i} {:?}: {}", m.name, describe_shading(m));
+    for (i, ((name, model), m)) in report
+        .material_models
+        .iter()
+        .zip(&report.shading)
+        .enumerate()
+    {
+        println!("material {i} {name:?}: {model}; {}", describe_shading(m));
     }
     for l in &report.lights {
         println!("{l}");

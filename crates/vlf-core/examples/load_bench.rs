@@ -118,6 +118,7 @@ fn synthetic(faces: u32, side: u32, enc: RadianceEncoding) -> LightField {
                 specular_alpha: 0.0,
                 base_color_texcoord: 0,
                 emissive_texcoord: 0,
+                ..SurfaceMaterial::opaque_default()
             }],
             uvs: vec![[[0.0; 2]; 3]; tris.len()],
             ..Shading::empty()

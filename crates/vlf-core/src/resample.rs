@@ -75,15 +75,21 @@ impl Lobes<'_> {
         Lobes { models, albedos }
     }
 
+    /// Whether `face` is a thin glass pane.
+    fn pane(&self, face: u32) -> bool {
+        matches!(self.models[face as usize], SpecularModel::Pane { .. })
+    }
+
     /// Whether `face` keeps its propagated tiles (a glossy lobe).
     fn glossy(&self, face: u32) -> bool {
         matches!(self.models[face as usize], SpecularModel::Tiles { .. })
     }
 
     /// What `face`, modelled as a mirror, reflects at `|cos θ|` = `cos` per unit reflectance
-    /// (1 for a perfect mirror).
+    /// (1 for a perfect mirror, R(θ) for a pane).
     fn mirror_albedo(&self, face: u32, cos: f32) -> f32 {
         match self.models[face as usize] {
+            SpecularModel::Pane { ior } => crate::scene::pane_reflectance(cos, ior),
             SpecularModel::Mirror { alpha } if alpha > 0.0 => self
                 .albedos
                 .iter()
@@ -235,13 +241,25 @@ fn trace(
     let mut origin = offset_ray_origin(p, side);
     let mut throughput = Vec3::ONE;
     let mut depth = 0;
+    // What panes crossed on the way sent back (their reflection, from their tiles).
+    let mut seen = Vec3::ZERO;
     loop {
         let hit = ps.bvh.closest_hit(&Ray::new(origin, dir, f32::INFINITY));
         if !hit.is_hit() {
-            return (throughput * sky, Ending::Sky);
+            return (seen + throughput * sky, Ending::Sky);
         }
         let s = field.surface(ps, dir, &hit);
         let f = &field.atlas.faces[s.face as usize];
+        // A pane passes the ray on straight through (attenuated) and sends back what its tiles
+        // and diffuse part hold: the chain follows the transmission (`gather::through`).
+        if lobes.pane(s.face) && depth + 1 < MAX_DEPTH {
+            seen += throughput * (field.emission(&s) + field.diffuse(&s) + field.specular(&s, dir));
+            throughput *= crate::gather::through::pane_pass(ps, &hit, dir).unwrap_or(Vec3::ZERO);
+            let n = f.normal();
+            origin = offset_ray_origin(s.world, if n.dot(dir) > 0.0 { n } else { -n });
+            depth += 1;
+            continue;
+        }
         match f.kind {
             FACE_MIRROR if depth + 1 < MAX_DEPTH && !lobes.glossy(s.face) => {
                 let n = f.normal();
@@ -253,17 +271,18 @@ fn trace(
                 depth += 1;
             }
             FACE_MIRROR if !lobes.glossy(s.face) => {
-                return (throughput * field.specular(&s, dir), Ending::Cut);
+                return (seen + throughput * field.specular(&s, dir), Ending::Cut);
             }
             FACE_DIFFUSE => {
                 return (
-                    throughput * (field.emission(&s) + field.diffuse(&s)),
+                    seen + throughput * (field.emission(&s) + field.diffuse(&s)),
                     Ending::Surface,
                 );
             }
             _ => {
                 return (
-                    throughput * (field.emission(&s) + field.diffuse(&s) + field.specular(&s, dir)),
+                    seen + throughput
+                        * (field.emission(&s) + field.diffuse(&s) + field.specular(&s, dir)),
                     Ending::Surface,
                 );
             }

@@ -61,6 +61,7 @@ mod error;
 mod faces;
 mod gltf_import;
 mod lights;
+mod material;
 mod texture;
 mod uri;
 
@@ -73,6 +74,10 @@ use serde::{Deserialize, Serialize};
 pub use builder::SceneBuilder;
 pub use error::SceneError;
 pub use lights::{PunctualKind, PunctualLight, Sun};
+pub use material::{
+    AlphaMode, DEFAULT_IOR, DIFFUSE_MAX_METALLIC, METAL_MIN_METALLIC, MIRROR_MAX_ROUGHNESS,
+    Material, MaterialKind, TexRef, Transparency, lobes, pane_reflectance,
+};
 pub use texture::{FilterMode, Texture, WrapMode};
 
 /// Largest number of triangles [`load`] accepts (after instancing); more is
@@ -225,146 +230,6 @@ pub struct Face {
     /// The rectangle is the minimum-area one aligned with an edge of the face's
     /// convex hull, so charts are tight for rectangles and rotated polygons alike.
     pub extent: Vec2,
-}
-
-/// Reference to an entry of [`Scene::textures`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct TexRef {
-    /// Index into [`Scene::textures`] (not the glTF texture index).
-    pub index: u32,
-    /// The texture coordinate set the texture is read with: 0 ([`Triangle::uv`]) or 1
-    /// ([`Triangle::uv1`]); the importer reads larger glTF `texCoord`s as 0 (with a warning).
-    pub texcoord: u32,
-}
-
-/// Metallic factor at or below which a material is purely Lambertian
-/// (`shared/reference/README.md`).
-pub const DIFFUSE_MAX_METALLIC: f32 = 0.01;
-/// Metallic factor at or above which a material is purely metal.
-pub const METAL_MIN_METALLIC: f32 = 0.99;
-/// Roughness at or below which the metal lobe is a perfect mirror.
-pub const MIRROR_MAX_ROUGHNESS: f32 = 0.05;
-
-/// Lobes of a glTF (metallic, roughness) pair under the conventions of
-/// `shared/reference/README.md`: `(diffuse weight, GGX α)`; the metal lobe has weight
-/// `1 − diffuse weight`, and α = 0 means it is a perfect mirror (α = r² otherwise).
-pub fn lobes(metallic: f32, roughness: f32) -> (f32, f32) {
-    let w_diffuse = if metallic <= DIFFUSE_MAX_METALLIC {
-        1.0
-    } else if metallic >= METAL_MIN_METALLIC {
-        0.0
-    } else {
-        1.0 - metallic
-    };
-    let alpha = if roughness <= MIRROR_MAX_ROUGHNESS {
-        0.0
-    } else {
-        roughness * roughness
-    };
-    (w_diffuse, alpha)
-}
-
-/// Which lobes a surface has; derived from the glTF metallic factor m (missing factors
-/// default to 1 as in the glTF spec). The metal lobe is a perfect mirror of reflectance C
-/// when the roughness r ≤ 0.05 and a GGX lobe with α = r² and reflectance C otherwise (no
-/// Fresnel; [`Material::specular_alpha`]); how the baker models it (mirror, directional
-/// tiles, or folded into the diffuse part) is its own choice (`bake::glossy`).
-///
-/// | m | kind |
-/// |---|---|
-/// | m ≤ 0.01 | [`Diffuse`](MaterialKind::Diffuse), albedo C |
-/// | m ≥ 0.99 | [`Mirror`](MaterialKind::Mirror): the metal lobe alone |
-/// | 0.01 < m < 0.99 | [`Mixed`](MaterialKind::Mixed) `{ specular: m }` |
-///
-/// (C = base colour factor × base-colour texture.)
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum MaterialKind {
-    /// Lambertian reflection with albedo C.
-    Diffuse,
-    /// The metal lobe alone, reflectance C at every angle (no Fresnel): a perfect mirror, or a
-    /// GGX lobe when rough.
-    Mirror,
-    /// `(1 − specular)·Lambert(C) + specular·metal(C)`.
-    Mixed {
-        /// Weight of the metal lobe (the metallic factor), in (0.01, 0.99).
-        specular: f32,
-    },
-}
-
-impl MaterialKind {
-    /// The kind of a metallic factor (the thresholds of [`lobes`]).
-    pub fn from_metallic(metallic: f32) -> MaterialKind {
-        if metallic <= DIFFUSE_MAX_METALLIC {
-            MaterialKind::Diffuse
-        } else if metallic >= METAL_MIN_METALLIC {
-            MaterialKind::Mirror
-        } else {
-            MaterialKind::Mixed { specular: metallic }
-        }
-    }
-}
-
-/// A surface material (see [`MaterialKind`] for the reflection model).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Material {
-    /// glTF name, or `"material N"` when unnamed (`"default"` for the glTF default material).
-    pub name: String,
-    /// Linear RGB base colour factor (alpha ignored), clamped to [0, 1].
-    pub base_color: Vec3,
-    /// Base-colour texture (multiplies `base_color`).
-    pub base_color_texture: Option<TexRef>,
-    /// Emitted radiance factor: `emissiveFactor × KHR_materials_emissive_strength`.
-    /// Emission is one-sided (front face only).
-    pub emission: Vec3,
-    /// Emissive texture (multiplies `emission`).
-    pub emissive_texture: Option<TexRef>,
-    /// glTF `doubleSided` (informative: surfaces reflect alike from both sides).
-    pub double_sided: bool,
-    /// Reflection model.
-    pub kind: MaterialKind,
-    /// glTF metallic factor as read (clamped to [0, 1]).
-    pub metallic: f32,
-    /// glTF roughness factor as read (clamped to [0, 1]).
-    pub roughness: f32,
-}
-
-impl Material {
-    /// Weight of the Lambertian lobe: 1, 0 or `1 − specular`.
-    pub fn diffuse_weight(&self) -> f32 {
-        match self.kind {
-            MaterialKind::Diffuse => 1.0,
-            MaterialKind::Mirror => 0.0,
-            MaterialKind::Mixed { specular } => 1.0 - specular,
-        }
-    }
-
-    /// Weight of the metal lobe: 0, 1 or `specular`.
-    pub fn specular_weight(&self) -> f32 {
-        1.0 - self.diffuse_weight()
-    }
-
-    /// Lambertian albedo `diffuse_weight × base_color` (multiply by the base-colour
-    /// texture where there is one).
-    pub fn diffuse_albedo(&self) -> Vec3 {
-        self.base_color * self.diffuse_weight()
-    }
-
-    /// GGX α of the metal lobe (`roughness²`), 0 when it is a perfect mirror
-    /// (roughness ≤ [`MIRROR_MAX_ROUGHNESS`]).
-    pub fn specular_alpha(&self) -> f32 {
-        lobes(1.0, self.roughness).1
-    }
-
-    /// Metal-lobe reflectance `specular_weight × base_color` (multiply by the
-    /// base-colour texture where there is one).
-    pub fn specular_reflectance(&self) -> Vec3 {
-        self.base_color * self.specular_weight()
-    }
-
-    /// Whether the material emits light (non-zero emission factor).
-    pub fn is_emissive(&self) -> bool {
-        self.emission.max_element() > 0.0
-    }
 }
 
 /// A perspective camera of the default scene.
@@ -596,6 +461,11 @@ impl Scene {
         for t in &mut self.triangles {
             t.normals = None;
         }
+    }
+
+    /// Whether a material is (in part) a thin glass pane ([`Material::pane_weight`]).
+    pub fn has_panes(&self) -> bool {
+        self.materials.iter().any(|m| m.pane_weight() > 0.0)
     }
 
     /// Whether some triangle has shading normals.

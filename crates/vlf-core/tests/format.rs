@@ -2,6 +2,10 @@
 //! pinned on-disk layout, and the light-encoding error measurements of `docs/FORMAT.md`
 //! (`cargo test -p vlf-core --test format encoding_error -- --nocapture` prints the table).
 
+#[path = "../../../tests/src/scenes.rs"]
+#[allow(dead_code)]
+mod scenes;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -86,8 +90,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: 0,
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0,
-                base_color_texcoord: 0,
-                emissive_texcoord: 0,
+                ..SurfaceMaterial::opaque_default()
             },
             SurfaceMaterial {
                 base_color: [1.0; 3],
@@ -96,8 +99,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0625,
-                base_color_texcoord: 0,
-                emissive_texcoord: 0,
+                ..SurfaceMaterial::opaque_default()
             },
             SurfaceMaterial {
                 base_color: [0.5, 0.25, 0.125],
@@ -106,8 +108,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: 1,
                 specular_alpha: 0.2,
-                base_color_texcoord: 0,
-                emissive_texcoord: 0,
+                ..SurfaceMaterial::opaque_default()
             },
         ],
         uvs: (0..triangles)
@@ -134,6 +135,7 @@ fn synthetic_shading(triangles: usize, seed: u64) -> Shading {
             },
         ],
         texels: Radiance::from_f32(&texels, RadianceEncoding::RgbF16).unwrap(),
+        alpha: Vec::new(),
     }
 }
 
@@ -447,6 +449,47 @@ fn the_gathers_sampling_and_denoiser_round_trip_in_an_optional_section() {
     let plain = small();
     let h = header_of(&bytes_of(&plain, DEFAULT_ENCODING));
     assert!(h.sections.iter().all(|s| s.name != "gather_sampling"));
+}
+
+/// A light field with alpha masks keeps them: the `surfaces` and `texture_alpha` sections
+/// (required) round-trip, and the masks read back are the bake's; files without masks have
+/// neither section.
+#[test]
+fn alpha_masks_round_trip_in_their_sections() {
+    let dir = scratch("alpha-masks");
+    let scene = scenes::striped_screen(true);
+    let params = vlf_core::lightfield::BakeParams {
+        directions: 21,
+        resolution: 16,
+        tile: 4,
+        iterations: vlf_core::lightfield::Iterations::Fixed(1),
+        ..vlf_core::lightfield::BakeParams::paper()
+    };
+    let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();
+    assert!(lf.shading.has_masks());
+    let path = dir.join("masked.vlf");
+    format::write_atomic(&path, &lf).unwrap();
+    let back = format::read(&path).unwrap();
+    assert_eq!(back.shading, lf.shading);
+    assert_eq!(back.alpha_masks(), lf.alpha_masks());
+    assert_eq!(
+        back.alpha_masks(),
+        vlf_core::lightfield::AlphaMasks::from_scene(&scene)
+    );
+    let h = header_of(&fs::read(&path).unwrap());
+    for name in ["surfaces", "texture_alpha"] {
+        let s = h.sections.iter().find(|s| s.name == name).unwrap();
+        assert!(
+            s.required,
+            "{name}: a reader that skipped it would draw holes opaque"
+        );
+    }
+    let h = header_of(&bytes_of(&small(), DEFAULT_ENCODING));
+    assert!(
+        h.sections
+            .iter()
+            .all(|s| s.name != "surfaces" && s.name != "texture_alpha")
+    );
 }
 
 #[test]

@@ -21,6 +21,7 @@ use vlf_core::directions::DirectionSet;
 use vlf_core::format;
 use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEntry};
 use vlf_core::hash;
+use vlf_core::lightfield::encoding::f16_encode;
 use vlf_core::lightfield::{
     BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, LightField,
     NO_TEXTURE, Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
@@ -93,11 +94,19 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
         materials: vec![
             SurfaceMaterial {
                 base_color: [0.8, 0.5, 0.2],
-                diffuse_weight: 1.0,
+                diffuse_weight: 0.5,
                 emission: [0.0; 3],
                 base_color_texture: tex(0),
                 emissive_texture: NO_TEXTURE,
                 specular_alpha: 0.0,
+                // An alpha mask (so that the `surfaces` and `texture_alpha` sections are
+                // fuzzed too when there are textures).
+                alpha_cutoff: if textures > 0 { 0.5 } else { 0.0 },
+                alpha_factor: 0.9,
+                alpha_nearest: textures > 0,
+                // And a pane (the `surfaces` section's pane words).
+                pane: 0.5,
+                ior: 1.45,
                 base_color_texcoord: 0,
                 emissive_texcoord: 0,
             },
@@ -108,8 +117,7 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 base_color_texture: NO_TEXTURE,
                 emissive_texture: tex(1),
                 specular_alpha: 0.0,
-                base_color_texcoord: 0,
-                emissive_texcoord: 0,
+                ..SurfaceMaterial::opaque_default()
             },
         ],
         uvs: (0..triangles)
@@ -133,6 +141,11 @@ fn shading(triangles: usize, textures: usize, rng: &mut Rng) -> Shading {
                 wrap_t: WrapMode::Repeat,
             })
             .collect(),
+        alpha: if textures > 0 {
+            texels.iter().map(|t| f16_encode(t[0])).collect()
+        } else {
+            Vec::new()
+        },
         texels: Radiance::from_f32(&texels, RadianceEncoding::RgbF16).unwrap(),
     }
 }

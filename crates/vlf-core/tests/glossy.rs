@@ -23,6 +23,7 @@ fn metal(b: &mut SceneBuilder, alpha: f32) -> u32 {
         kind: MaterialKind::Mirror,
         metallic: 1.0,
         roughness: alpha.sqrt(),
+        transparency: Default::default(),
     })
 }
 
@@ -303,6 +304,7 @@ fn rules_choose_the_model_by_lobe_width() {
             kind: MaterialKind::from_metallic(metallic),
             metallic,
             roughness,
+            transparency: Default::default(),
         });
     }
     let scene = b.build("materials");

@@ -368,6 +368,7 @@ fn textured_texels_hold_the_texture_mean_over_their_area() {
         kind: MaterialKind::Diffuse,
         metallic: 0.0,
         roughness: 1.0,
+        transparency: Default::default(),
     });
     b.quad(
         [

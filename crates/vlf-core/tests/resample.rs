@@ -216,6 +216,7 @@ fn glossy_tiles_are_kept_and_rough_mirrors_reflect_their_albedo() {
             kind: MaterialKind::Mirror,
             metallic: 1.0,
             roughness: alpha.sqrt(),
+            transparency: Default::default(),
         });
         hquad(&mut b, 0.0, 1.0, true, m);
         let scene = b.build("glossy plane");

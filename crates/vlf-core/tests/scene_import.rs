@@ -754,11 +754,135 @@ fn texture_is_decoded_to_linear() {
             .iter()
             .any(|w| w.contains("KHR_texture_transform"))
     );
+    // Transmission is a thin pane now; roughness 1 (the glTF default) is not modelled.
+    assert_eq!(s.materials[0].pane_weight(), 1.0);
     assert!(
         s.warnings
             .iter()
-            .any(|w| w.contains("KHR_materials_transmission is ignored"))
+            .any(|w| w
+                .contains("rough transmission (roughness 1) is modelled as a smooth thin pane"))
     );
+    assert!(
+        !s.warnings
+            .iter()
+            .any(|w| w.contains("is ignored") && w.contains("transmission"))
+    );
+}
+
+#[test]
+fn transmission_and_ior_make_a_thin_pane() {
+    let dir = temp_dir("pane");
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b).replace(
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"pbrMetallicRoughness":{"metallicFactor":0}}]"#,
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],
+            "pbrMetallicRoughness":{"metallicFactor":0,"roughnessFactor":0},
+            "extensions":{"KHR_materials_transmission":{"transmissionFactor":0.75},
+                "KHR_materials_ior":{"ior":1.33}}},
+            {"pbrMetallicRoughness":{"metallicFactor":0.5,"roughnessFactor":0},
+            "extensions":{"KHR_materials_transmission":{"transmissionFactor":1,
+                "transmissionTexture":{"index":0}},
+                "KHR_materials_volume":{"thicknessFactor":0.1},"KHR_materials_ior":{"ior":0.5}}}]"#,
+    );
+    let path = write(&dir, "pane.gltf", b.document(Some(""), &rest));
+    let s = scene::load(&path).unwrap();
+    let (a, c) = (&s.materials[0], &s.materials[1]);
+    // transmissionFactor × (1 − metallic) of the non-metal part is the pane.
+    assert_eq!((a.pane_weight(), a.diffuse_weight()), (0.75, 0.25));
+    assert_eq!(a.transparency.ior, 1.33);
+    assert_eq!(
+        (c.pane_weight(), c.diffuse_weight(), c.specular_weight()),
+        (0.5, 0.0, 0.5)
+    );
+    assert_eq!(c.transparency.ior, scene::DEFAULT_IOR);
+    for part in [
+        "transmissionTexture is ignored",
+        "KHR_materials_volume is not modelled",
+        "ior 0.5 is not modelled",
+    ] {
+        assert!(
+            s.warnings.iter().any(|w| w.contains(part)),
+            "{part}: {:?}",
+            s.warnings
+        );
+    }
+    assert!(
+        a.model().contains("0.75 thin glass pane (IOR 1.33"),
+        "{}",
+        a.model()
+    );
+}
+
+#[test]
+fn window_room_glazed_has_panes_and_no_warnings() {
+    let s = load_shared("window-room-glazed/window-room-glazed.glb");
+    let glass = s
+        .materials
+        .iter()
+        .find(|m| m.name == "float glass")
+        .unwrap();
+    assert_eq!(glass.pane_weight(), 1.0);
+    assert_eq!(glass.diffuse_weight(), 0.0);
+    assert_eq!(glass.transparency.ior, 1.5);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+#[test]
+fn alpha_modes_and_cutoffs_are_read() {
+    let dir = temp_dir("alpha");
+    let mut b = Builder::default();
+    let rest = quad_scene(&mut b).replace(
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"pbrMetallicRoughness":{"metallicFactor":0}}]"#,
+        r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1],"alphaMode":"MASK","alphaCutoff":0.3,
+            "pbrMetallicRoughness":{"metallicFactor":0,"baseColorFactor":[1,1,1,0.8]}},
+            {"alphaMode":"BLEND","pbrMetallicRoughness":{"baseColorFactor":[1,1,1,0.2]}},
+            {"alphaMode":"MASK"},
+            {"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,0.1]}}]"#,
+    );
+    let path = write(&dir, "alpha.gltf", b.document(Some(""), &rest));
+    let s = scene::load(&path).unwrap();
+    let t: Vec<_> = s.materials.iter().map(|m| m.transparency).collect();
+    assert_eq!(t[0].alpha_mode, scene::AlphaMode::Mask);
+    assert_eq!((t[0].alpha_cutoff, t[0].alpha), (0.3, 0.8));
+    // BLEND is a mask at ½ (docs/PROPAGATION.md, Alpha masks).
+    assert_eq!(t[1].alpha_mode, scene::AlphaMode::Blend);
+    assert_eq!((t[1].cutoff(), t[1].alpha), (0.5, 0.2));
+    assert!(t[1].masks());
+    // The glTF default cutoff.
+    assert_eq!(
+        (t[2].alpha_mode, t[2].cutoff(), t[2].alpha),
+        (scene::AlphaMode::Mask, 0.5, 1.0)
+    );
+    // OPAQUE ignores alpha.
+    assert_eq!(t[3], scene::Transparency::default());
+    assert!(!t[3].masks());
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("alphaMode")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn lamp_room_screen_is_a_nearest_mask() {
+    let s = load_shared("lamp-room/lamp-room.glb");
+    let m = s
+        .materials
+        .iter()
+        .find(|m| m.name == "perforated screen")
+        .unwrap();
+    assert_eq!(m.transparency.alpha_mode, scene::AlphaMode::Mask);
+    assert_eq!(m.transparency.cutoff(), 0.5);
+    let t = &s.textures[m.base_color_texture.unwrap().index as usize];
+    assert_eq!(
+        (t.width, t.height, t.filter),
+        (64, 64, scene::FilterMode::Nearest)
+    );
+    assert!(t.has_alpha);
+    // The holes: some texels transparent, most opaque.
+    let holes = t.pixels.iter().filter(|p| p.w < 0.5).count();
+    assert!(holes > 0 && holes < t.pixels.len() / 2, "{holes} holes");
+    assert!(!s.warnings.iter().any(|w| w.contains("alphaMode")));
 }
 
 #[test]

@@ -24,9 +24,13 @@ pub const OPTIONAL_FEATURES: wgpu::Features =
 
 /// The minimum limits vlf needs; anything the adapter offers beyond this (buffer sizes in
 /// particular) is requested too so large bakes can use the whole device.
+///
+/// Storage buffers per stage: 10. The GPU path tracer and the final gather bind 9 (their 8,
+/// then the alpha masks every BVH traversal reads, `shaders/common/alpha_mask.wgsl`); WebGPU's
+/// default is 8, but Vulkan, Metal and D3D12 drivers offer 16 and more (lavapipe 32).
 pub fn minimum_limits() -> wgpu::Limits {
     wgpu::Limits {
-        max_storage_buffers_per_shader_stage: 8,
+        max_storage_buffers_per_shader_stage: 10,
         max_storage_buffer_binding_size: 128 << 20,
         max_buffer_size: 256 << 20,
         max_compute_workgroup_size_x: 256,

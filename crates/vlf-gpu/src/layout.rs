@@ -102,7 +102,8 @@ pub struct BakeDirection {
     pub items_count: u32,
     /// 1 when the scene has non-diffuse faces.
     pub has_tiles: u32,
-    pub _pad: u32,
+    /// 1 when the scene has thin glass panes (the interface pass carries light through them).
+    pub has_panes: u32,
 }
 
 /// One unit of the reflect pass (`bake_reflect.wgsl`): one destination tile slot of one
@@ -386,6 +387,7 @@ macro_rules! shared {
 /// mirror. The test `rust_structs_match_wgsl` compares each field's name, order, offset and
 /// size, and the struct's size and alignment, with naga's layout of that file.
 pub fn registry() -> Vec<SharedStruct> {
+    use vlf_core::bake::prep::PaneFace;
     use vlf_core::lightfield::{BakeFace, BakeTriangle};
     use vlf_core::pathtrace::{BvhNode, Hit, Ray, RtTriangle};
     vec![
@@ -398,7 +400,7 @@ pub fn registry() -> Vec<SharedStruct> {
             u, v, w, sun, weight, n, tile, k_max, bin_base, tiles_per_side, active_texels,
             is_sun, spec_plus_v, spec_plus_w, spec_minus_v, spec_minus_w, sky, tiles_l, tile_m,
             words_per_slot, face_slot_off, index_start_off, tile_ids_off, coverage_off,
-            tile_values_off, items_base, items_count, has_tiles, _pad,
+            tile_values_off, items_base, items_count, has_tiles, has_panes,
         }),
         shared!(BakeTriangle in "common/bake_scene.wgsl" { p0, face, p1, _pad0, p2, _pad1 }),
         shared!(BakeFace in "common/bake_scene.wgsl" {
@@ -406,6 +408,7 @@ pub fn registry() -> Vec<SharedStruct> {
             material,
         }),
         shared!(CellEntry in "common/bake_rays.wgsl" { depth, face }),
+        shared!(PaneFace in "common/pane.wgsl" { tint, weight, ior, _pad }),
         shared!(Crossing in "common/bake_rays.wgsl" { below, above }),
         shared!(TexelAccum in "bake_gather.wgsl" { irradiance, open }),
         shared!(ReflectItem in "bake_reflect.wgsl" { weight, slot, face, j, senses }),

@@ -73,6 +73,10 @@ pub static COMMON_RAYS: Shader = shader!("common/rays.wgsl");
 pub static COMMON_BVH: Shader = shader!("common/bvh.wgsl");
 /// Texture wrap modes and the bilinear footprint (path tracer, pass 5).
 pub static COMMON_TEXTURE: Shader = shader!("common/texture.wgsl");
+/// Alpha masks: where a triangle has no surface (group 1, binding 6).
+pub static COMMON_ALPHA_MASK: Shader = shader!("common/alpha_mask.wgsl");
+/// Thin glass panes: the thin dielectric's reflectance and a face's transmittance.
+pub static COMMON_PANE: Shader = shader!("common/pane.wgsl");
 /// Per-path random streams (`Rng`).
 pub static COMMON_RANDOM: Shader = shader!("common/random.wgsl");
 /// Sampling routines (cosine hemisphere, bases, barycentrics, MIS weights).
@@ -117,6 +121,8 @@ pub static ALL: &[&Shader] = &[
     &COMMON_RAYS,
     &COMMON_BVH,
     &COMMON_TEXTURE,
+    &COMMON_ALPHA_MASK,
+    &COMMON_PANE,
     &COMMON_RANDOM,
     &COMMON_SAMPLING,
     &COMMON_RT_SCENE,

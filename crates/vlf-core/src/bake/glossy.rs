@@ -44,13 +44,17 @@ pub enum SpecularModel {
     Tiles { alpha: f32 },
     /// Folded into the diffuse part with its hemispherical albedo.
     Diffuse { alpha: f32 },
+    /// A thin glass pane (issue 25): reflected as a perfect mirror scaled by R(θ)
+    /// (`scene::pane_reflectance`), the rest passed straight through by the interface step;
+    /// a metal lobe of the same material is folded into the diffuse part.
+    Pane { ior: f32 },
 }
 
 impl SpecularModel {
     /// The GGX α of the modelled lobe (0 for a perfect mirror or no lobe).
     pub fn alpha(&self) -> f32 {
         match *self {
-            SpecularModel::None => 0.0,
+            SpecularModel::None | SpecularModel::Pane { .. } => 0.0,
             SpecularModel::Mirror { alpha }
             | SpecularModel::Tiles { alpha }
             | SpecularModel::Diffuse { alpha } => alpha,
@@ -61,7 +65,7 @@ impl SpecularModel {
     pub fn has_tiles(&self) -> bool {
         matches!(
             self,
-            SpecularModel::Mirror { .. } | SpecularModel::Tiles { .. }
+            SpecularModel::Mirror { .. } | SpecularModel::Tiles { .. } | SpecularModel::Pane { .. }
         )
     }
 }
@@ -82,6 +86,11 @@ pub fn spacing(set: &DirectionSet) -> f32 {
 /// mirror (used where no direction set is known, e.g. the final gather's atlas, which only
 /// needs the diffuse albedo).
 pub fn model(material: &Material, spacing: Option<f32>) -> SpecularModel {
+    if material.pane_weight() > 0.0 {
+        return SpecularModel::Pane {
+            ior: material.transparency.ior,
+        };
+    }
     if matches!(material.kind, MaterialKind::Diffuse) {
         return SpecularModel::None;
     }
@@ -127,6 +136,19 @@ pub fn baked_materials(materials: &[Material], spacing: Option<f32>) -> Vec<Bake
                 SpecularModel::None => (m.diffuse_weight(), Vec3::ZERO),
                 SpecularModel::Mirror { .. } | SpecularModel::Tiles { .. } => {
                     (m.diffuse_weight(), m.specular_reflectance())
+                }
+                SpecularModel::Pane { .. } => {
+                    // The pane's reflection is untinted; a metal lobe beside it is folded.
+                    let alpha = m.specular_alpha();
+                    let albedo = if alpha > 0.0 {
+                        GgxAlbedo::new(alpha).hemispherical()
+                    } else {
+                        1.0
+                    };
+                    (
+                        m.diffuse_weight() + m.specular_weight() * albedo,
+                        Vec3::splat(m.pane_weight()),
+                    )
                 }
             };
             BakedMaterial {

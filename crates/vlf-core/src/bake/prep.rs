@@ -19,10 +19,47 @@ use serde::Serialize;
 use super::glossy::{self, SpecularModel};
 use crate::directions::DirectionSet;
 use crate::lightfield::{
-    BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
+    AlphaMasks, BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED,
+    ParamsError,
 };
 use crate::pathtrace::lights::DeltaLight;
 use crate::scene::{MaterialKind, Scene, Texture};
+
+/// A face's thin glass pane as the propagation reads it (32 bytes; mirrors WGSL `PaneFace` of
+/// `shaders/common/pane.wgsl`): crossing the face along a direction at |cos θ| to its normal,
+/// light passes `tint × T(θ)` straight through (T = 1 − `scene::pane_reflectance`), and
+/// `weight × (1 − T(θ))` of it is the pane's mirror reflection. All zero: no pane.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct PaneFace {
+    /// Pane weight × base colour × the base-colour texture's mean over the face.
+    pub tint: [f32; 3],
+    /// Pane weight ([`crate::scene::Material::pane_weight`]).
+    pub weight: f32,
+    /// Index of refraction.
+    pub ior: f32,
+    pub _pad: [f32; 3],
+}
+
+impl PaneFace {
+    /// What a crossing at |cos θ| = `cos` passes straight through (rgb; 0 without a pane).
+    pub fn transmittance(&self, cos: f32) -> Vec3 {
+        if self.weight <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let t = 1.0 - crate::scene::pane_reflectance(cos, self.ior);
+        Vec3::from(self.tint) * t
+    }
+
+    /// What a crossing at |cos θ| = `cos` passes straight through before the tint, `weight ×
+    /// T(θ)` (the tint absorbs the difference).
+    pub fn untinted(&self, cos: f32) -> f32 {
+        if self.weight <= 0.0 {
+            return 0.0;
+        }
+        self.weight * (1.0 - crate::scene::pane_reflectance(cos, self.ior))
+    }
+}
 
 /// Summary of a prepared scene (for logs and `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -51,14 +88,19 @@ pub struct BakeScene {
     /// Metal-lobe reflectance per face (rgb; zero for faces without directional tiles): the
     /// material's, times the base-colour texture's mean over the face where it has one.
     pub specular: Vec<[f32; 4]>,
+    /// Per face, its thin glass pane ([`PaneFace`]; zero for faces without one).
+    pub panes: Vec<PaneFace>,
     /// How each face's metal lobe is modelled ([`glossy::model`]): the faces with
-    /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors or glossy.
+    /// directional tiles (`kind != FACE_DIFFUSE`) are mirrors, glossy or panes.
     pub lobes: Vec<SpecularModel>,
     /// Every material as baked (its lobe's model, the reflectance of its two parts), by
     /// material index: what a reader of the propagated field multiplies it by.
     pub materials: Vec<glossy::BakedMaterial>,
     /// Suns in VLF: (travel direction, irradiance).
     pub suns: Vec<(Vec3, Vec3)>,
+    /// The alpha masks of `triangles` (empty when no material masks): the propagation's rays
+    /// pass through a triangle where it [`cuts`](AlphaMasks::cuts).
+    pub masks: AlphaMasks,
     /// Point and spot lights in VLF (positions and ranges mapped, intensities scaled by the
     /// VLF scale², so irradiance is unchanged): their direct light is injected into the
     /// propagation's first iteration ([`super::punctual`]).
@@ -89,6 +131,7 @@ impl BakeScene {
     fn prepare(scene: &Scene, texel_size: f32, spacing: Option<f32>) -> Result<Self, ParamsError> {
         let xf = scene.to_vlf;
         let baked = glossy::baked_materials(&scene.materials, spacing);
+        let masks = AlphaMasks::from_scene(scene);
         let warnings = Vec::new();
 
         let triangles: Vec<BakeTriangle> = scene
@@ -112,8 +155,18 @@ impl BakeScene {
             let width = ((extent.x / texel_size).ceil() as u32).max(1);
             let height = ((extent.y / texel_size).ceil() as u32).max(1);
             let origin = xf.apply(f.basis.origin);
+            let bm = &baked[f.material as usize];
             let (kind, specular) = match mat.kind {
-                _ if !baked[f.material as usize].model.has_tiles() => (FACE_DIFFUSE, 0.0),
+                _ if !bm.model.has_tiles() => (FACE_DIFFUSE, 0.0),
+                // A pane: its mirror part is the pane's, any metal lobe folded.
+                _ if matches!(bm.model, SpecularModel::Pane { .. }) => (
+                    if bm.diffuse_weight > 0.0 {
+                        FACE_MIXED
+                    } else {
+                        FACE_MIRROR
+                    },
+                    mat.pane_weight(),
+                ),
                 MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
                 MaterialKind::Mirror => (FACE_MIRROR, 1.0),
                 MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
@@ -149,6 +202,7 @@ impl BakeScene {
         // The metal lobe's reflectance is C = base colour × base-colour texture, like the
         // Lambert part's: faces with tiles reflect with the texture's mean over their covered
         // area (the renderer applies the texture per pixel).
+        let mut panes = vec![PaneFace::default(); scene.faces.len()];
         let mut specular: Vec<[f32; 4]> = scene
             .faces
             .iter()
@@ -201,19 +255,23 @@ impl BakeScene {
             let emit_tex = mat
                 .emissive_texture
                 .map(|t| (&scene.textures[t.index as usize], t.texcoord));
+            let face_masks = (!masks.is_empty()).then_some(&masks);
+            let masked = face_masks.is_some_and(|m| m.is_masked(f.triangles.start));
             // Vertex colours multiply the base colour (never the emission).
             let colored = face_tris.iter().any(|t| t.colors.is_some());
-            let means = (base_tex.is_some() || emit_tex.is_some() || colored).then(|| {
-                texture_means(
-                    scene,
-                    fi,
-                    &basis,
-                    texel_size,
-                    (w, h),
-                    [base_tex, emit_tex],
-                    colored,
-                )
-            });
+            let means =
+                (base_tex.is_some() || emit_tex.is_some() || colored || masked).then(|| {
+                    texture_means(
+                        scene,
+                        fi,
+                        &basis,
+                        texel_size,
+                        (w, h),
+                        [base_tex, emit_tex],
+                        colored,
+                        face_masks.filter(|_| masked),
+                    )
+                });
             let mut spec_tex = (Vec3::ZERO, 0f64);
             for i in 0..w * h {
                 if area[i] <= 0.0 {
@@ -221,8 +279,8 @@ impl BakeScene {
                 }
                 let c = centroid[i] / area[i] as f32 * texel_size;
                 let p = basis.from_chart(c);
-                // The means over the covered part (at the centroid of the largest covered
-                // piece for a sliver no sample point fell on).
+                // The means over the covered part the alpha mask leaves (at the centroid of the
+                // largest covered piece for a sliver no sample point fell on).
                 let (_, k, at) = best[i];
                 let point = || {
                     let tri = &face_tris[k];
@@ -230,9 +288,27 @@ impl BakeScene {
                     (tri, barycentrics(&q, at))
                 };
                 let mean = |k: usize, fallback: &dyn Fn() -> Vec3| match &means {
-                    Some(m) if m.weight[i] > 0.0 => m.sum[k][i] / m.weight[i],
+                    Some(m) if m.open[i] > 0.0 => m.sum[k][i] / m.open[i],
                     _ => fallback(),
                 };
+                // The share of the covered part the alpha mask leaves (1 without a mask): a
+                // sliver no sample point fell on is kept or cut whole by its best piece.
+                let coverage = match &means {
+                    _ if !masked => 1.0,
+                    Some(m) if m.weight[i] > 0.0 => m.open[i] / m.weight[i],
+                    _ => {
+                        let (b1, b2) = point().1;
+                        let tri = f.triangles.start + k as u32;
+                        if masks.cuts(tri, [1.0 - b1 - b2, b1, b2]) {
+                            0.0
+                        } else {
+                            1.0
+                        }
+                    }
+                };
+                if coverage <= 0.0 {
+                    continue;
+                }
                 let mut base = baked[f.material as usize].diffuse;
                 if base_tex.is_some() || colored {
                     let t = mean(0, &|| {
@@ -240,8 +316,8 @@ impl BakeScene {
                         surface_value(tri, base_tex, b1, b2) * tri.color_at(b1, b2)
                     });
                     base *= t;
-                    spec_tex.0 += t * area[i] as f32;
-                    spec_tex.1 += area[i];
+                    spec_tex.0 += t * (area[i] as f32 * coverage);
+                    spec_tex.1 += area[i] * f64::from(coverage);
                 }
                 let mut emit = mat.emission;
                 if emit_tex.is_some() {
@@ -250,7 +326,7 @@ impl BakeScene {
                         surface_value(tri, emit_tex, b1, b2)
                     });
                 }
-                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32;
+                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32 * coverage;
                 for side in 0..2 {
                     let k = bf.texel_base as usize + side * w * h + i;
                     texel_area[k] = a;
@@ -261,8 +337,22 @@ impl BakeScene {
                     }
                 }
             }
-            if spec_tex.1 > 0.0 {
-                let c = Vec4::from(specular[fi]).truncate() * (spec_tex.0 / spec_tex.1 as f32);
+            let tex_mean = if spec_tex.1 > 0.0 {
+                spec_tex.0 / spec_tex.1 as f32
+            } else {
+                Vec3::ONE
+            };
+            if matches!(baked[f.material as usize].model, SpecularModel::Pane { .. }) {
+                // The pane passes t_w × T(θ) × C straight through; its reflection is untinted.
+                let w = mat.pane_weight();
+                panes[fi] = PaneFace {
+                    tint: (mat.base_color * tex_mean * w).to_array(),
+                    weight: w,
+                    ior: mat.transparency.ior,
+                    _pad: [0.0; 3],
+                };
+            } else if spec_tex.1 > 0.0 {
+                let c = Vec4::from(specular[fi]).truncate() * tex_mean;
                 specular[fi] = c.extend(0.0).into();
             }
         }
@@ -284,9 +374,11 @@ impl BakeScene {
             albedo,
             emission,
             specular,
+            panes,
             lobes,
             materials: baked,
             suns,
+            masks,
             lights: scene
                 .lights
                 .iter()
@@ -346,10 +438,12 @@ impl BakeScene {
 pub const TEXTURE_SAMPLES: std::ops::RangeInclusive<u32> = 4..=8;
 
 /// Per texel of one chart side: the sums of the base-colour (times the vertex colour) and
-/// emissive texture values over the sample points that fall on the face, each weighted by the
-/// area it stands for, and the sum of those weights.
+/// emissive texture values over the sample points that fall on the face where its alpha mask
+/// leaves a surface, each weighted by the area it stands for, the sum of those weights
+/// (`open`), and the sum of the weights of all points on the face (`weight`).
 struct TextureMeans {
     sum: [Vec<Vec3>; 2],
+    open: Vec<f32>,
     weight: Vec<f32>,
 }
 
@@ -368,6 +462,7 @@ fn surface_value(tri: &crate::scene::Triangle, tex: TexSlot, b1: f32, b2: f32) -
 /// the triangle sample the textures at their interpolated uvs (each slot its own set), the
 /// base colour's times the interpolated vertex colour when `colored`, weighted by the area
 /// 1/S² they stand for. A missing texture reads 1.
+#[allow(clippy::too_many_arguments)]
 fn texture_means(
     scene: &Scene,
     fi: usize,
@@ -376,13 +471,23 @@ fn texture_means(
     (w, h): (usize, usize),
     textures: [TexSlot; 2],
     colored: bool,
+    masks: Option<&AlphaMasks>,
 ) -> TextureMeans {
     let mut m = TextureMeans {
         sum: [vec![Vec3::ZERO; w * h], vec![Vec3::ZERO; w * h]],
+        open: vec![0.0; w * h],
         weight: vec![0.0; w * h],
     };
     let xf = scene.to_vlf;
-    for tri in scene.face_triangles(fi) {
+    let first = scene.faces[fi].triangles.start;
+    // The mask reads the base-colour texture: its density counts even when only the mask does.
+    let mask_tex = masks.and_then(|_| {
+        scene.materials[scene.faces[fi].material as usize]
+            .base_color_texture
+            .map(|t| (&scene.textures[t.index as usize], t.texcoord.min(1)))
+    });
+    for (k, tri) in scene.face_triangles(fi).iter().enumerate() {
+        let ti = first + k as u32;
         let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
         let (e1, e2) = (q[1] - q[0], q[2] - q[0]);
         let det = e1.perp_dot(e2);
@@ -392,6 +497,7 @@ fn texture_means(
         // uv per unit of chart x and y (texel units), then texture texels per atlas texel.
         let density = textures
             .iter()
+            .chain(std::iter::once(&mask_tex))
             .flatten()
             .map(|(t, set)| {
                 let uv = tri.uv_set(*set);
@@ -428,6 +534,10 @@ fn texture_means(
                         if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
                             continue;
                         }
+                        m.weight[i] += wgt;
+                        if masks.is_some_and(|mk| mk.cuts(ti, [1.0 - b1 - b2, b1, b2])) {
+                            continue;
+                        }
                         let mut base = surface_value(tri, textures[0], b1, b2);
                         if colored {
                             base *= tri.color_at(b1, b2);
@@ -436,7 +546,7 @@ fn texture_means(
                         if textures[1].is_some() {
                             m.sum[1][i] += surface_value(tri, textures[1], b1, b2) * wgt;
                         }
-                        m.weight[i] += wgt;
+                        m.open[i] += wgt;
                     }
                 }
             }

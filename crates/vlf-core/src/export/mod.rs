@@ -415,8 +415,11 @@ impl<'a> Writer<'a> {
         let metallic = 1.0 - self.diffuse_weights[m as usize];
         let roughness = if metallic > 0.0 { 0.0 } else { 1.0 };
         let b = mat.base_color;
+        // Alpha masks cut the same holes in the engine (a blend as the mask at ½ vlf bakes).
+        let masks = mat.transparency.masks();
+        let alpha = if masks { mat.transparency.alpha } else { 1.0 };
         let mut pbr = json!({
-            "baseColorFactor": [b.x, b.y, b.z, 1.0],
+            "baseColorFactor": [b.x, b.y, b.z, alpha],
             "metallicFactor": metallic,
             "roughnessFactor": roughness,
         });
@@ -447,6 +450,11 @@ impl<'a> Writer<'a> {
             "pbrMetallicRoughness": pbr,
             "extras": { "vlf_lightmap": self.lightmap_extras(lightmap) },
         });
+        if masks {
+            material["alphaMode"] = json!("MASK");
+            material["alphaCutoff"] = json!(mat.transparency.cutoff());
+            material["doubleSided"] = json!(true);
+        }
         let strength = emission.max_element();
         if !back && strength > 0.0 {
             let factor = if strength > 1.0 {

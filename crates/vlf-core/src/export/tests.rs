@@ -293,6 +293,7 @@ fn metallic_factor_is_one_minus_the_baked_diffuse_weight() {
         kind: crate::scene::MaterialKind::Mirror,
         metallic: 1.0,
         roughness: 0.9,
+        transparency: Default::default(),
     });
     b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, lamp);
     b.quad(

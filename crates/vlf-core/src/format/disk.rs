@@ -211,6 +211,13 @@ impl FileGatherSampling {
     }
 }
 
+/// What lets light through each material ([`crate::format::shading::FileSurface`], one per
+/// material; written, required, when a material masks or is a pane).
+pub const KIND_SURFACE: u32 = 13;
+/// Texture alpha: IEEE binary16 (2 bytes) per texel, the `texels` section's texels; written,
+/// required, when a material masks.
+pub const KIND_TEXTURE_ALPHA: u32 = 14;
+
 /// Section names.
 pub const SECTION_TRIANGLES: &str = "triangles";
 pub const SECTION_FACES: &str = "faces";
@@ -220,6 +227,8 @@ pub const SECTION_UVS: &str = "uvs";
 pub const SECTION_TEXTURES: &str = "textures";
 pub const SECTION_TEXELS: &str = "texels";
 pub const SECTION_GATHER_SAMPLING: &str = "gather_sampling";
+pub const SECTION_SURFACES: &str = "surfaces";
+pub const SECTION_TEXTURE_ALPHA: &str = "texture_alpha";
 /// Optional sections of the per-corner attributes (required when written: a reader that
 /// cannot use them cannot render the file right); each is written only where the scene has
 /// the attribute, so files of scenes without them are unchanged.

@@ -92,7 +92,9 @@ impl FileInfo {
             | disk::SECTION_MATERIALS
             | disk::SECTION_UVS
             | disk::SECTION_TEXTURES
-            | disk::SECTION_TEXELS => Some(s.byte_len),
+            | disk::SECTION_TEXELS
+            | disk::SECTION_SURFACES
+            | disk::SECTION_TEXTURE_ALPHA => Some(s.byte_len),
             _ => None,
         };
         let sections: Vec<SectionInfo> = h
@@ -123,6 +125,8 @@ impl FileInfo {
             disk::SECTION_UVS,
             disk::SECTION_TEXTURES,
             disk::SECTION_TEXELS,
+            disk::SECTION_SURFACES,
+            disk::SECTION_TEXTURE_ALPHA,
         ]
         .map(bytes)
         .iter()

@@ -167,6 +167,10 @@ fn known_section(name: &str, enc: RadianceEncoding) -> Option<(u32, usize)> {
         disk::SECTION_UVS => Some((disk::KIND_UVS, size_of::<FileUvs>())),
         disk::SECTION_TEXTURES => Some((disk::KIND_TEXTURE, size_of::<FileTexture>())),
         disk::SECTION_TEXELS => Some((disk::KIND_TEXELS, disk::TEXEL_BYTES)),
+        disk::SECTION_SURFACES => {
+            Some((disk::KIND_SURFACE, size_of::<super::shading::FileSurface>()))
+        }
+        disk::SECTION_TEXTURE_ALPHA => Some((disk::KIND_TEXTURE_ALPHA, 2)),
         disk::SECTION_GATHER_SAMPLING => Some((
             disk::KIND_GATHER_SAMPLING,
             size_of::<disk::FileGatherSampling>(),
@@ -411,6 +415,30 @@ pub(super) fn read_from(src: &dyn Source, path: &Path) -> Result<LightField, For
     let triangles: Vec<BakeTriangle> = triangles.iter().map(Into::into).collect();
     let faces: Vec<BakeFace> = faces.iter().map(Into::into).collect();
     let mut shading = shading::unpack(&materials, &uvs, &textures, texels).map_err(content)?;
+    if let Some(sec) = h.sections.iter().find(|s| s.name == disk::SECTION_SURFACES) {
+        let recs: Vec<shading::FileSurface> = read_pod(src, sec, path)?;
+        if recs.len() != shading.materials.len() {
+            return Err(content((
+                "surfaces".into(),
+                format!(
+                    "{} records for {} materials",
+                    recs.len(),
+                    shading.materials.len()
+                ),
+            )));
+        }
+        for (i, (r, m)) in recs.iter().zip(&mut shading.materials).enumerate() {
+            r.apply(m)
+                .map_err(|reason| content((format!("surface of material {i}"), reason)))?;
+        }
+    }
+    if let Some(sec) = h
+        .sections
+        .iter()
+        .find(|s| s.name == disk::SECTION_TEXTURE_ALPHA)
+    {
+        shading.alpha = read_u16s(src, sec, path)?;
+    }
     let optional = |name: &str| h.sections.iter().find(|s| s.name == name);
     let attrs = shading::Attributes {
         uvs1: optional(disk::SECTION_UVS1)
@@ -567,6 +595,29 @@ fn read_pod<T: Pod>(
     }
     disk::swap_words_le(&mut items);
     Ok(items)
+}
+
+/// Reads a section of little-endian `u16`s (texture alpha), checksum verified.
+fn read_u16s(src: &dyn Source, s: &SectionEntry, path: &Path) -> Result<Vec<u16>, FormatError> {
+    let mut bytes = vec![0u8; elements(s, path)?.saturating_mul(2)];
+    src.read_at(s.offset, &mut bytes)
+        .map_err(|source| FormatError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+    let computed = hash::section_checksum(&bytes);
+    if computed != s.checksum {
+        return Err(FormatError::Checksum {
+            section: s.name.clone(),
+            stored: s.checksum,
+            computed,
+            path: path.to_owned(),
+        });
+    }
+    Ok(bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .collect())
 }
 
 /// Reads the light section `s` (irradiance, tile radiance or texture texels) into memory as

@@ -143,6 +143,67 @@ pub struct FileTexture {
     pub wrap_t: u32,
 }
 
+/// What lets light through a material (32 bytes; every field a 4-byte little-endian word):
+/// section `surfaces`, one per material, written only when a material masks or has a pane
+/// (files without it hold opaque materials).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileSurface {
+    /// [`SurfaceMaterial::alpha_cutoff`] (0: no mask).
+    pub alpha_cutoff: f32,
+    /// [`SurfaceMaterial::alpha_factor`].
+    pub alpha_factor: f32,
+    /// Bit 0: the mask reads its texture with NEAREST filtering; other bits 0.
+    pub flags: u32,
+    /// [`SurfaceMaterial::pane`] (0: no pane).
+    pub pane: f32,
+    /// [`SurfaceMaterial::ior`].
+    pub ior: f32,
+    /// Reserved, written 0.
+    pub reserved: [u32; 3],
+}
+
+/// [`FileSurface::flags`] bit: NEAREST mask filtering.
+pub const SURFACE_NEAREST: u32 = 1;
+
+impl From<&SurfaceMaterial> for FileSurface {
+    fn from(m: &SurfaceMaterial) -> Self {
+        FileSurface {
+            alpha_cutoff: m.alpha_cutoff,
+            alpha_factor: m.alpha_factor,
+            flags: if m.alpha_nearest { SURFACE_NEAREST } else { 0 },
+            pane: m.pane,
+            ior: m.ior,
+            reserved: [0; 3],
+        }
+    }
+}
+
+impl FileSurface {
+    /// Writes the record into `m`; `Err` names what is not a record a writer produces.
+    pub fn apply(&self, m: &mut SurfaceMaterial) -> Result<(), String> {
+        if self.flags & !SURFACE_NEAREST != 0 || self.reserved != [0; 3] {
+            return Err(format!(
+                "unknown flags {:#x} or reserved words {:?} set",
+                self.flags, self.reserved
+            ));
+        }
+        m.alpha_cutoff = self.alpha_cutoff;
+        m.alpha_factor = self.alpha_factor;
+        m.alpha_nearest = self.flags & SURFACE_NEAREST != 0;
+        m.pane = self.pane;
+        m.ior = self.ior;
+        Ok(())
+    }
+}
+
+/// Whether `s` needs the `surfaces` section (a material that is not plainly opaque).
+pub(super) fn has_surfaces(s: &Shading) -> bool {
+    s.materials
+        .iter()
+        .any(|m| FileSurface::from(m) != FileSurface::from(&SurfaceMaterial::opaque_default()))
+}
+
 impl From<&SurfaceMaterial> for FileMaterial {
     fn from(m: &SurfaceMaterial) -> Self {
         FileMaterial {
@@ -165,9 +226,7 @@ impl From<&FileMaterial> for SurfaceMaterial {
             base_color_texture: m.base_color_texture,
             emissive_texture: m.emissive_texture,
             specular_alpha: m.specular_alpha,
-            // The `material_texcoords` section, where there is one, sets them.
-            base_color_texcoord: 0,
-            emissive_texcoord: 0,
+            ..SurfaceMaterial::opaque_default()
         }
     }
 }
@@ -244,5 +303,6 @@ pub(super) fn unpack(
         colors: None,
         textures,
         texels,
+        alpha: Vec::new(),
     })
 }

@@ -196,6 +196,42 @@ pub(super) fn encode<'a>(
         bodies.push(Cow::Owned(idx_bytes));
         bodies.push(vals);
     }
+    if shading::has_surfaces(&lf.shading) {
+        let recs: Vec<shading::FileSurface> = lf
+            .shading
+            .materials
+            .iter()
+            .map(shading::FileSurface::from)
+            .collect();
+        let n = recs.len();
+        let bytes = pod_section(recs);
+        sections.push(entry(
+            disk::SECTION_SURFACES,
+            disk::KIND_SURFACE,
+            n,
+            size_of::<shading::FileSurface>(),
+            &bytes,
+            hash::section_checksum(&bytes),
+        ));
+        bodies.push(Cow::Owned(bytes));
+    }
+    if !lf.shading.alpha.is_empty() {
+        let bytes: Vec<u8> = lf
+            .shading
+            .alpha
+            .iter()
+            .flat_map(|a| a.to_le_bytes())
+            .collect();
+        sections.push(entry(
+            disk::SECTION_TEXTURE_ALPHA,
+            disk::KIND_TEXTURE_ALPHA,
+            lf.shading.alpha.len(),
+            2,
+            &bytes,
+            hash::section_checksum(&bytes),
+        ));
+        bodies.push(Cow::Owned(bytes));
+    }
     // The per-corner attributes, where the scene has them (required: a reader that does not
     // know them cannot render the file right).
     let attrs = shading::pack_attributes(&lf.shading);

@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use crate::bake::BakeScene;
 use crate::directions::DirectionSet;
-use crate::lightfield::{BakeFace, TileIndex};
+use crate::lightfield::{AlphaMasks, BakeFace, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
 use crate::psf::PsfFrame;
@@ -451,6 +451,11 @@ impl<'a> Contacts<'a> {
 /// point lies on its face, and their shading normals, to tell the shading normal there.
 pub struct Charts {
     tris: Vec<Vec<[Vec2; 3]>>,
+    /// Index of each face's first triangle in the scene (its triangles follow it).
+    first: Vec<u32>,
+    /// The triangles' alpha masks (by scene index): a point where they leave no surface is
+    /// not on the face.
+    masks: AlphaMasks,
     /// The shading normals of each face's triangles (`None`: flat).
     normals: Vec<Vec<Option<[Vec3; 3]>>>,
 }
@@ -458,6 +463,7 @@ pub struct Charts {
 impl Charts {
     pub fn new(scene: &Scene, atlas: &BakeScene) -> Self {
         let xf = scene.to_vlf;
+        let first = scene.faces.iter().map(|f| f.triangles.start).collect();
         let tris = atlas
             .faces
             .iter()
@@ -473,7 +479,18 @@ impl Charts {
         let normals = (0..atlas.faces.len())
             .map(|fi| scene.face_triangles(fi).iter().map(|t| t.normals).collect())
             .collect();
-        Self { tris, normals }
+        Self {
+            tris,
+            first,
+            masks: atlas.masks.clone(),
+            normals,
+        }
+    }
+
+    /// The scene index of the first triangle of `face` (the GPU gather tags each chart
+    /// triangle with its own).
+    pub fn first_triangle(&self, face: usize) -> u32 {
+        self.first[face]
     }
 
     /// The chart-space triangles of `face` (what the GPU gather uploads).
@@ -486,13 +503,24 @@ impl Charts {
         &self.normals[face]
     }
 
-    /// The first of `face`'s triangles holding chart point `c` (texel units).
+    /// The first of `face`'s triangles holding chart point `c` (texel units), `None` when none
+    /// does or when its alpha mask (if any) leaves no surface there (the first triangle that
+    /// holds it decides).
     pub fn locate(&self, face: usize, c: Vec2) -> Option<usize> {
-        self.tris[face].iter().position(|q| {
+        for (k, q) in self.tris[face].iter().enumerate() {
             let e = |a: Vec2, b: Vec2| (b - a).perp_dot(c - a);
             let (d0, d1, d2) = (e(q[0], q[1]), e(q[1], q[2]), e(q[2], q[0]));
-            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
-        })
+            if (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0) {
+                let sum = d0 + d1 + d2;
+                if self.masks.is_empty() || sum == 0.0 {
+                    return Some(k);
+                }
+                // d1, d2, d0 are twice the areas opposite corners 0, 1, 2.
+                let tri = self.first[face] + k as u32;
+                return (!self.masks.cuts(tri, [d1 / sum, d2 / sum, d0 / sum])).then_some(k);
+            }
+        }
+        None
     }
 
     /// Whether chart point `c` (texel units) of `face` lies on one of its triangles.

@@ -29,6 +29,8 @@ pub mod field;
 pub mod guide;
 pub mod points;
 mod sampled;
+mod strata;
+pub mod through;
 
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
@@ -39,7 +41,7 @@ use crate::directions::DirectionSet;
 use crate::lightfield::{GatherParams, ParamsError, TileIndex};
 use crate::pathtrace::geometry::offset_ray_origin;
 use crate::pathtrace::sampling::{self, Rng};
-use crate::pathtrace::{Bvh, Hit, PreparedScene, Ray};
+use crate::pathtrace::{Bvh, Hit, PreparedScene};
 use crate::scene::Scene;
 pub use field::Charts;
 use field::{Field, Tiles};
@@ -47,6 +49,8 @@ use guide::{Cells, Guide};
 pub use points::{GatherPoint, Openness, TexelPoints};
 use sampled::final_gather_sampled;
 pub use sampled::{Distribution, SamplingStats};
+use strata::shuffled_strata;
+pub use strata::{spread_point, strata_side};
 
 /// The propagated light field the gather reads.
 pub struct Converged<'a> {
@@ -195,10 +199,7 @@ impl Gatherer<'_> {
             let u = strata.point(k, &mut rng);
             let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
             if !below(q, n, dir)
-                && !self
-                    .ps
-                    .bvh
-                    .occluded(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY))
+                && through::ray_transmittance(self.ps, offset_ray_origin(q.p, n), dir) != Vec3::ZERO
             {
                 cells.add(u, 1.0);
                 any = true;
@@ -215,14 +216,15 @@ impl Gatherer<'_> {
         if below(q, n, dir) {
             return Vec3::ZERO;
         }
-        let hit = self
-            .ps
-            .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY));
-        if hit.is_hit() {
-            self.field_radiance(dir, &hit)
+        // Through panes: each sends back what it reflects (`through`).
+        let mut sum = Vec3::ZERO;
+        let traced = through::trace(self.ps, offset_ray_origin(q.p, n), dir, &mut |h, thr| {
+            sum += thr * self.field_radiance(dir, h)
+        });
+        if traced.hit.is_hit() {
+            sum + traced.throughput * self.field_radiance(dir, &traced.hit)
         } else {
-            Vec3::ZERO
+            sum
         }
     }
 
@@ -376,14 +378,15 @@ impl Gatherer<'_> {
                     let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
                     let origin = offset_ray_origin(p, n);
                     let target = offset_ray_origin(x, nl);
-                    if w > 0.0
-                        && !self
-                            .ps
-                            .bvh
-                            .occluded(&Ray::new(origin, target - origin, 1.0))
-                    {
+                    // Through panes, attenuated.
+                    let pass = if w > 0.0 {
+                        through::segment_transmittance(self.ps, origin, target - origin)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    if pass != Vec3::ZERO {
                         let le = self.ps.emission(e.tri, bary.x, bary.y);
-                        value = le * (w * cos_r / (pdf_l * fl));
+                        value = le * (w * cos_r / (pdf_l * fl)) * pass;
                     }
                 }
                 sum += value;
@@ -416,11 +419,12 @@ impl Gatherer<'_> {
                     for s in &lights.delta {
                         let inc = s.incident(q.p);
                         let cos = q.n.dot(inc.wi);
-                        if cos > 0.0
-                            && !below(q, n, inc.wi)
-                            && !self.ps.bvh.occluded(&s.shadow_ray(origin, &inc))
-                        {
-                            value += inc.irradiance * cos;
+                        if cos > 0.0 && !below(q, n, inc.wi) {
+                            let pass =
+                                through::shadow_transmittance(self.ps, &s.shadow_ray(origin, &inc));
+                            if pass != Vec3::ZERO {
+                                value += inc.irradiance * cos * pass;
+                            }
                         }
                     }
                     sun += value;
@@ -457,12 +461,11 @@ impl Gatherer<'_> {
         if below(q, n, dir) {
             return Vec3::ZERO;
         }
-        let hit = self
-            .ps
-            .bvh
-            .closest_hit(&Ray::new(offset_ray_origin(q.p, n), dir, f32::INFINITY));
+        // Through panes, attenuated (`hit.t` the whole distance, for the light samples' pdf).
+        let traced = through::trace(self.ps, offset_ray_origin(q.p, n), dir, &mut |_, _| {});
+        let (hit, pass) = (traced.hit, traced.throughput);
         if !hit.is_hit() {
-            return self.sky * (std::f32::consts::PI / (fb * m));
+            return self.sky * (std::f32::consts::PI / (fb * m)) * pass;
         }
         let tri = &self.ps.bvh.triangles[hit.tri as usize];
         if tri.light == crate::pathtrace::NONE {
@@ -477,7 +480,7 @@ impl Gatherer<'_> {
         let pdf_l = lights.emitter_pdf(tri.light, hit.t, cos_l) / lights.p_emitters;
         let w = sampling::power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = self.ps.emission(hit.tri, hit.u, hit.v);
-        le * (w * std::f32::consts::PI / (fb * m))
+        le * (w * std::f32::consts::PI / (fb * m)) * pass
     }
 }
 
@@ -543,56 +546,6 @@ impl Moments {
     }
 }
 
-/// The point that sample `k` of `n` starts from when a texel has `len` points: `k % len` when
-/// the samples are as many as the points or more; otherwise a random one of the points in the
-/// `k`-th of `n` equal runs of the point list (point `(k·len + j) / n`, j uniform in 0..len,
-/// one draw), so that every point is equally likely and the samples stay spread over the
-/// texel's strata. The points come in stratum order, so the first `n` of them would cover only
-/// the first rows of the texel: a texel next to a steep source (the 1 cm emitting sides of a
-/// lamp flush with the ceiling) saw it from one edge only, too bright or too dark by the edge's
-/// orientation (cornell-suzanne's ceiling: 3.2× and 0.29× along two sides of its lamp;
-/// `docs/GATHER.md`). The GPU gather draws the same (`spread_point` in
-/// `shaders/gather_texels.wgsl`).
-pub fn spread_point(k: usize, n: usize, len: usize, rng: &mut Rng) -> usize {
-    if n >= len {
-        return k % len;
-    }
-    let j = rng.next_u32() as usize % len;
-    (k * len + j) / n
-}
-
-/// A g × g grid of 2-D strata over [0, 1)² in a random order (so that a texel's point strata and
-/// its direction or light strata are paired at random).
-struct Strata {
-    g: u32,
-    order: Vec<u32>,
-}
-
-/// Side g of the g × g strata that hold `count` samples: ⌈√count⌉ (1 for none), computed as
-/// the CPU does it (the GPU gather is handed these values rather than taking its own root).
-pub fn strata_side(count: u32) -> u32 {
-    (count.max(1) as f32).sqrt().ceil() as u32
-}
-
-fn shuffled_strata(count: u32, rng: &mut Rng) -> Strata {
-    let g = strata_side(count);
-    let mut order: Vec<u32> = (0..g * g).collect();
-    for i in (1..order.len()).rev() {
-        let j = (rng.next_u32() as usize) % (i + 1);
-        order.swap(i, j);
-    }
-    Strata { g, order }
-}
-
-impl Strata {
-    /// A jittered point of the stratum paired with sample `k`.
-    fn point(&self, k: usize, rng: &mut Rng) -> Vec2 {
-        let s = self.order[k % self.order.len()];
-        let j = rng.next_2d();
-        Vec2::new((s % self.g) as f32 + j.x, (s / self.g) as f32 + j.y) / self.g as f32
-    }
-}
-
 /// Σ E·area over an atlas' texels, summed over channels.
 fn power(atlas: &BakeScene, irradiance: &[[f32; 4]]) -> f64 {
     irradiance
@@ -641,6 +594,11 @@ impl Grid {
             open: Openness {
                 bvh,
                 r_close: self.r_close(scene),
+                panes: scene
+                    .materials
+                    .iter()
+                    .map(|m| m.pane_weight() > 0.0)
+                    .collect(),
             },
             xf: scene.to_vlf,
             tex_face: &self.tex_face,

@@ -30,13 +30,16 @@ pub struct Openness<'a> {
     pub bvh: &'a Bvh,
     /// Probes along the normal that hit anything closer than this close the point (world).
     pub r_close: f32,
+    /// Per material (BVH triangles' `material`): whether it is a thin glass pane, which is
+    /// never the wall of a closed solid (a probe that meets one is open).
+    pub panes: Vec<bool>,
 }
 
 impl Openness<'_> {
     /// Whether point `p` of a surface whose lit side has unit normal `n` is open.
     pub fn is_open(&self, p: Vec3, n: Vec3) -> bool {
         let origin = offset_ray_origin(p, n);
-        if self.bvh.occluded(&Ray::new(origin, n, self.r_close)) {
+        if self.closes(origin, n) {
             return false;
         }
         // Inside a closed solid every direction reaches a back face; outside, most find a
@@ -50,8 +53,11 @@ impl Openness<'_> {
         for d in [n, tilt(t), tilt(-t * 0.5 + b * 0.866_025_4)] {
             let hit = self.bvh.closest_hit(&Ray::new(origin, d, f32::INFINITY));
             let front = !hit.is_hit() || {
-                let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
-                (b - a).cross(c - a).dot(d) <= 0.0
+                let tri = &self.bvh.triangles[hit.tri as usize];
+                let [a, b, c] = tri.corners();
+                // A pane passes light: it counts as open.
+                self.panes.get(tri.material as usize) == Some(&true)
+                    || (b - a).cross(c - a).dot(d) <= 0.0
             };
             if front {
                 open += 1;
@@ -66,6 +72,40 @@ impl Openness<'_> {
             }
         }
         unreachable!("three directions reach a majority")
+    }
+}
+
+impl Openness<'_> {
+    /// Whether anything but a pane lies within `r_close` of `origin` along `n` (a pane passes
+    /// light, so a gap under one is lit).
+    fn closes(&self, origin: Vec3, n: Vec3) -> bool {
+        if !self.panes.contains(&true) {
+            return self.bvh.occluded(&Ray::new(origin, n, self.r_close));
+        }
+        let (mut from, mut left) = (origin, self.r_close);
+        for _ in 0..super::through::MAX_PANES {
+            let hit = self.bvh.closest_hit(&Ray::new(from, n, left));
+            if !hit.is_hit() {
+                return false;
+            }
+            let tri = &self.bvh.triangles[hit.tri as usize];
+            if self.panes.get(tri.material as usize) != Some(&true) {
+                return true;
+            }
+            let [a, b, c] = tri.corners();
+            let q = a * (1.0 - hit.u - hit.v) + b * hit.u + c * hit.v;
+            let ng = (b - a).cross(c - a);
+            from = offset_ray_origin(
+                q,
+                if ng.dot(n) > 0.0 {
+                    ng.normalize()
+                } else {
+                    -ng.normalize()
+                },
+            );
+            left -= hit.t;
+        }
+        true
     }
 }
 

@@ -12,6 +12,7 @@
 
 pub mod encoding;
 pub mod geometry;
+pub mod mask;
 pub mod params;
 mod radiance;
 pub mod shading;
@@ -23,6 +24,7 @@ use crate::directions::DirectionSet;
 use crate::scene::{Camera, SceneSummary, Similarity};
 pub use encoding::{DEFAULT_ENCODING, RadianceEncoding};
 pub use geometry::{BakeFace, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED};
+pub use mask::AlphaMasks;
 pub use params::{BakeParams, GatherParams, Iterations, ParamsError, Sampling};
 pub use radiance::{InvalidStoredRadiance, NonFiniteRadiance, Radiance};
 pub use shading::{InvalidShading, NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture};
@@ -90,6 +92,17 @@ pub struct MirrorTiles {
 }
 
 impl LightField {
+    /// The alpha masks of [`triangles`](Self::triangles) (each reads its face's material), in
+    /// their order: what pass 3, pass 5 and its mirror tracing apply.
+    pub fn alpha_masks(&self) -> AlphaMasks {
+        AlphaMasks::from_shading(
+            &self.shading,
+            self.triangles
+                .iter()
+                .map(|t| self.faces.get(t.face as usize).map_or(0, |f| f.material)),
+        )
+    }
+
     /// Bytes of the stored light in memory (atlas irradiance and mirror tile radiance, as
     /// stored).
     pub fn light_bytes(&self) -> usize {

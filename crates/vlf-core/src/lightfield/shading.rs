@@ -27,8 +27,9 @@
 //! in memory and in the file, `Rgba16Float` on the GPU like the atlas), not the importer's f32
 //! RGBA (16 bytes):
 //!
-//! * alpha is dropped: vlf has no alpha blending or masking (`Material::base_color` ignores
-//!   alpha too);
+//! * alpha is kept apart, and only where a material masks ([`Shading::alpha`], f16, read by
+//!   the alpha masks of [`super::mask`]); no blending is rendered (`Material::base_color`
+//!   ignores alpha);
 //! * f16 keeps every 8-bit sRGB source exactly enough: its rounding error (≤ 2⁻¹¹ relative,
 //!   0.05 %) is under a twentieth of the gap between the linear values of two adjacent sRGB
 //!   codes (≥ 0.9 % above code 10; absolute 3·10⁻⁴ below, where f16 is far finer), so every
@@ -41,7 +42,7 @@ use glam::{Vec2, Vec3};
 
 use super::encoding::RadianceEncoding;
 use super::radiance::Radiance;
-use crate::scene::{Material, Scene, WrapMode};
+use crate::scene::{FilterMode, Material, Scene, WrapMode};
 
 /// Texture index meaning "no texture" (reads 1).
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -66,6 +67,19 @@ pub struct SurfaceMaterial {
     /// GGX α of the metal lobe ([`Material::specular_alpha`]; 0: a perfect mirror, or no
     /// metal lobe): pass 5 samples the lobe when it traces a reflection.
     pub specular_alpha: f32,
+    /// Alpha mask ([`super::mask`]): where baseColorFactor.a × the base-colour texture's alpha
+    /// is below this there is no surface; 0 for opaque materials (coverage is never below 0).
+    pub alpha_cutoff: f32,
+    /// baseColorFactor.a (1 for opaque materials).
+    pub alpha_factor: f32,
+    /// Whether the mask reads its texture with NEAREST filtering (else LINEAR).
+    pub alpha_nearest: bool,
+    /// Weight of the thin glass pane ([`Material::pane_weight`]; 0: none): it reflects
+    /// `pane × R(θ)` as a mirror, untinted, and passes `pane × T(θ) × base colour × texture`
+    /// straight through ([`crate::scene::pane_reflectance`]).
+    pub pane: f32,
+    /// The pane's index of refraction.
+    pub ior: f32,
     /// The texture coordinate set (0 or 1) the base-colour texture is read with.
     pub base_color_texcoord: u32,
     /// The texture coordinate set (0 or 1) the emissive texture is read with.
@@ -82,8 +96,41 @@ impl SurfaceMaterial {
             base_color_texture: m.base_color_texture.map_or(NO_TEXTURE, |t| t.index),
             emissive_texture: m.emissive_texture.map_or(NO_TEXTURE, |t| t.index),
             specular_alpha: m.specular_alpha(),
+            alpha_cutoff: if m.transparency.masks() {
+                m.transparency.cutoff()
+            } else {
+                0.0
+            },
+            alpha_factor: if m.transparency.masks() {
+                m.transparency.alpha
+            } else {
+                1.0
+            },
+            alpha_nearest: false,
+            pane: m.pane_weight(),
+            ior: m.transparency.ior,
             base_color_texcoord: m.base_color_texture.map_or(0, |t| t.texcoord.min(1)),
             emissive_texcoord: m.emissive_texture.map_or(0, |t| t.texcoord.min(1)),
+        }
+    }
+
+    /// A black opaque diffuse material: the fields a file's `materials` section does not hold
+    /// at their opaque values (what files without a `surfaces` section mean).
+    pub fn opaque_default() -> Self {
+        SurfaceMaterial {
+            base_color: [0.0; 3],
+            diffuse_weight: 1.0,
+            emission: [0.0; 3],
+            base_color_texture: NO_TEXTURE,
+            emissive_texture: NO_TEXTURE,
+            specular_alpha: 0.0,
+            alpha_cutoff: 0.0,
+            alpha_factor: 1.0,
+            alpha_nearest: false,
+            pane: 0.0,
+            ior: crate::scene::DEFAULT_IOR,
+            base_color_texcoord: 0,
+            emissive_texcoord: 0,
         }
     }
 
@@ -91,6 +138,11 @@ impl SurfaceMaterial {
     pub fn uses_texcoord1(&self) -> bool {
         (self.base_color_texture != NO_TEXTURE && self.base_color_texcoord == 1)
             || (self.emissive_texture != NO_TEXTURE && self.emissive_texcoord == 1)
+    }
+
+    /// Whether the material cuts holes where its coverage is below [`alpha_cutoff`](Self::alpha_cutoff).
+    pub fn masks(&self) -> bool {
+        self.alpha_cutoff > 0.0
     }
 
     /// The diffuse albedo factor `diffuse weight × baseColorFactor` (times the base-colour
@@ -138,6 +190,9 @@ pub struct Shading {
     /// `textures` order, each row-major with row 0 the top of the image (glTF uv (0, 0) is its
     /// top-left corner).
     pub texels: Radiance,
+    /// The alpha of the same texels (f16 bits, in [0, 1]) where a material masks
+    /// ([`SurfaceMaterial::masks`]); empty otherwise (alpha is then never read).
+    pub alpha: Vec<u16>,
 }
 
 /// Materials, uvs or textures that do not fit together ([`Shading::check`]).
@@ -160,6 +215,7 @@ impl Shading {
             colors: None,
             textures: Vec::new(),
             texels: Radiance::new(RadianceEncoding::RgbF16),
+            alpha: Vec::new(),
         }
     }
 
@@ -199,8 +255,29 @@ impl Shading {
         let materials: Vec<SurfaceMaterial> = scene
             .materials
             .iter()
-            .map(SurfaceMaterial::from_material)
+            .map(|m| {
+                let mut s = SurfaceMaterial::from_material(m);
+                s.alpha_nearest = s.masks()
+                    && m.base_color_texture
+                        .and_then(|t| scene.textures.get(t.index as usize))
+                        .is_some_and(|t| t.filter == FilterMode::Nearest);
+                s
+            })
             .collect();
+        let alpha = if materials.iter().any(SurfaceMaterial::masks) {
+            let mut a = Vec::with_capacity(values.len());
+            for t in &scene.textures {
+                let n = t.width as usize * t.height as usize;
+                a.extend(t.pixels.iter().take(n).map(|p| texture_alpha(p.w)));
+                a.resize(
+                    a.len() + n.saturating_sub(t.pixels.len()),
+                    texture_alpha(1.0),
+                );
+            }
+            a
+        } else {
+            Vec::new()
+        };
         let finite2 = |uv: Vec2| if uv.is_finite() { uv } else { Vec2::ZERO }.to_array();
         let uvs1 = materials
             .iter()
@@ -240,6 +317,7 @@ impl Shading {
                 .collect(),
             texels: Radiance::from_f32(&values, RadianceEncoding::RgbF16)
                 .expect("non-finite texels were replaced"),
+            alpha,
         }
     }
 
@@ -271,6 +349,12 @@ impl Shading {
                 .map_or(0, |v| size_of_val(v.as_slice()))
             + size_of_val(self.textures.as_slice())
             + self.texels.byte_len()
+            + size_of_val(self.alpha.as_slice())
+    }
+
+    /// Whether a material masks ([`SurfaceMaterial::masks`]).
+    pub fn has_masks(&self) -> bool {
+        self.materials.iter().any(SurfaceMaterial::masks)
     }
 
     /// The corner texture coordinates of set `set` of triangle `tri` (a missing set 1 reads
@@ -389,6 +473,33 @@ impl Shading {
             if !(0.0..=1.0).contains(&m.specular_alpha) {
                 return bad(el(), format!("GGX α {} is not in [0, 1]", m.specular_alpha));
             }
+            if !(m.alpha_cutoff.is_finite() && m.alpha_cutoff >= 0.0) {
+                return bad(
+                    el(),
+                    format!(
+                        "alpha cutoff {} is not finite and non-negative",
+                        m.alpha_cutoff
+                    ),
+                );
+            }
+            if !(0.0..=1.0).contains(&m.alpha_factor) {
+                return bad(
+                    el(),
+                    format!("alpha factor {} is not in [0, 1]", m.alpha_factor),
+                );
+            }
+            if !(0.0..=1.0).contains(&m.pane) || m.diffuse_weight + m.pane > 1.0 + 1e-6 {
+                return bad(
+                    el(),
+                    format!(
+                        "pane weight {} is not in [0, 1 − diffuse weight {}]",
+                        m.pane, m.diffuse_weight
+                    ),
+                );
+            }
+            if !(m.ior.is_finite() && m.ior >= 1.0) {
+                return bad(el(), format!("index of refraction {} is below 1", m.ior));
+            }
             if m.base_color_texcoord > 1 || m.emissive_texcoord > 1 {
                 return bad(el(), "texture coordinate sets must be 0 or 1".into());
             }
@@ -428,6 +539,23 @@ impl Shading {
                 ),
             );
         }
+        if !self.alpha.is_empty() && self.alpha.len() != self.texels.len() {
+            return bad(
+                "texture alpha".into(),
+                format!(
+                    "{} alpha values for {} texels",
+                    self.alpha.len(),
+                    self.texels.len()
+                ),
+            );
+        }
+        // f16 values in [0, 1]: at most 0x3C00 (1.0), no sign bit.
+        if let Some(i) = self.alpha.iter().position(|&a| a > 0x3C00) {
+            return bad(
+                format!("texture alpha {i}"),
+                "not a stored alpha (outside [0, 1] or not a number)".into(),
+            );
+        }
         if self.texels.encoding() != RadianceEncoding::RgbF16 {
             return bad(
                 "texels".into(),
@@ -463,9 +591,15 @@ impl Shading {
     }
 }
 
+/// A texture alpha as the light field stores it ([`Shading::alpha`]): clamped to [0, 1] (NaN as
+/// 1), in f16.
+pub fn texture_alpha(a: f32) -> u16 {
+    super::encoding::f16_encode(if a.is_nan() { 1.0 } else { a.clamp(0.0, 1.0) })
+}
+
 /// One axis of [`Shading::sample`]: the wrapped indices of the two texels around the sample
 /// point and the weight of the second (`texel_axis` of `shaders/common/texture.wgsl`).
-fn texel_axis(u: f32, size: u32, mode: WrapMode) -> (u32, u32, f32) {
+pub(crate) fn texel_axis(u: f32, size: u32, mode: WrapMode) -> (u32, u32, f32) {
     let mut r = u.clamp(-1e9, 1e9);
     if mode != WrapMode::ClampToEdge {
         let p = if mode == WrapMode::MirroredRepeat {
@@ -479,28 +613,35 @@ fn texel_axis(u: f32, size: u32, mode: WrapMode) -> (u32, u32, f32) {
     let x0 = x.floor();
     let i = x0 as i32;
     let n = size as i32;
-    let wrap = |i: i32| -> u32 {
-        if mode == WrapMode::ClampToEdge {
-            return i.clamp(0, n - 1) as u32;
-        }
-        let period = if mode == WrapMode::MirroredRepeat {
-            2 * n
-        } else {
-            n
-        };
-        let mut m = if i < 0 { i + period } else { i };
-        if m >= period {
-            m -= period;
-        }
-        (if m >= n { 2 * n - 1 - m } else { m }) as u32
+    (
+        wrap_reduced(i, n, mode),
+        wrap_reduced(i + 1, n, mode),
+        x - x0,
+    )
+}
+
+/// Index `i` of a coordinate reduced to one period ([`texel_axis`]) wrapped into `0..n`
+/// (`wrap_reduced` of `shaders/common/texture.wgsl`).
+pub(crate) fn wrap_reduced(i: i32, n: i32, mode: WrapMode) -> u32 {
+    if mode == WrapMode::ClampToEdge {
+        return i.clamp(0, n - 1) as u32;
+    }
+    let period = if mode == WrapMode::MirroredRepeat {
+        2 * n
+    } else {
+        n
     };
-    (wrap(i), wrap(i + 1), x - x0)
+    let mut m = if i < 0 { i + period } else { i };
+    if m >= period {
+        m -= period;
+    }
+    (if m >= n { 2 * n - 1 - m } else { m }) as u32
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{FilterMode, Texture};
+    use crate::scene::Texture;
     use glam::Vec4;
 
     /// `sample` reads the same texels with the same weights as `Texture::bilinear` (the spec of

@@ -7,7 +7,10 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec3A, Vec4};
 
+use std::sync::Arc;
+
 use super::geometry::{Hit, Ray, RayPre, RtTriangle, intersect};
+use crate::lightfield::AlphaMasks;
 
 /// A flattened BVH node (32 bytes; mirrors WGSL `BvhNode`).
 #[repr(C)]
@@ -45,6 +48,9 @@ pub struct Bvh {
     /// Triangles in leaf order (`RtTriangle::prim` gives the original index). Only the
     /// `material` and `light` fields may be changed after building.
     pub triangles: Vec<RtTriangle>,
+    /// Alpha masks of the triangles by their original index (`prim`): a hit where a mask
+    /// leaves no surface is skipped ([`Bvh::with_masks`]; none by default).
+    masks: Arc<AlphaMasks>,
 }
 
 #[derive(Clone, Copy)]
@@ -127,7 +133,20 @@ impl Bvh {
             nodes,
             simd,
             triangles,
+            masks: Arc::default(),
         }
+    }
+
+    /// The hierarchy with alpha masks: rays pass through a triangle wherever `masks` (indexed
+    /// by `RtTriangle::prim`) [`cuts`](AlphaMasks::cuts) it.
+    pub fn with_masks(mut self, masks: Arc<AlphaMasks>) -> Bvh {
+        self.masks = masks;
+        self
+    }
+
+    /// The alpha masks the traversal applies (empty: none).
+    pub fn masks(&self) -> &AlphaMasks {
+        &self.masks
     }
 
     /// The flattened nodes, root first.
@@ -169,6 +188,9 @@ impl Bvh {
                 for i in index..index + count {
                     let tri = &self.triangles[i as usize];
                     if let Some((t, u, v)) = intersect(&pre, tri.corners(), ray.tmin, tmax) {
+                        if self.masks.cuts_at(tri.prim, u, v) {
+                            continue;
+                        }
                         best = Hit { t, tri: i, u, v };
                         tmax = t;
                         if any {

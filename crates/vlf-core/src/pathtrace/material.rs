@@ -3,8 +3,11 @@
 //! With m = metallic, r = roughness and C = base colour (× texture):
 //! m ≤ 0.01 → Lambert(C); m ≥ 0.99 → metal(C); otherwise (1 − m)·Lambert(C) + m·metal(C), where
 //! metal is a perfect mirror of reflectance C (no Fresnel) when r ≤ 0.05 and a GGX microfacet
-//! metal with α = r² and reflectance C (Smith G1·G1, no Fresnel) otherwise. Surfaces reflect
-//! alike from both sides: callers pass the normal flipped towards `wo`.
+//! metal with α = r² and reflectance C (Smith G1·G1, no Fresnel) otherwise. A thin glass pane
+//! (`KHR_materials_transmission`) takes transmissionFactor of the non-metal part: it reflects
+//! R(θ) as an untinted perfect mirror and passes T(θ) = 1 − R(θ) × C straight through
+//! (`scene::pane_reflectance`, Mitsuba's thindielectric). Surfaces reflect alike from both
+//! sides: callers pass the normal flipped towards `wo`.
 
 use glam::{Vec2, Vec3};
 
@@ -29,17 +32,22 @@ pub struct SurfaceMaterial {
     /// The texture coordinate sets (0 or 1) of the base-colour and emissive textures.
     pub base_texcoord: u32,
     pub emissive_texcoord: u32,
-    /// Weight of the Lambertian lobe; the metal lobe has `1 − w_diffuse`.
+    /// Weight of the Lambertian lobe; the metal lobe has `1 − w_diffuse − w_pane`.
     pub w_diffuse: f32,
     /// GGX α of the metal lobe; 0 = perfect mirror.
     pub alpha: f32,
+    /// Weight of the thin glass pane (0: none).
+    pub w_pane: f32,
+    /// The pane's index of refraction.
+    pub ior: f32,
 }
 
 impl SurfaceMaterial {
     /// From an imported material (its metallic and roughness factors, not its
     /// [`MaterialKind`](crate::scene::MaterialKind), which is the baker's approximation).
     pub fn from_scene(m: &Material) -> Self {
-        let (w_diffuse, alpha) = lobes(m.metallic, m.roughness);
+        let (non_metal, alpha) = lobes(m.metallic, m.roughness);
+        let w_pane = non_metal * m.transparency.transmission;
         Self {
             base_color: m.base_color,
             base_texture: m.base_color_texture.map(|t| t.index),
@@ -47,14 +55,30 @@ impl SurfaceMaterial {
             emissive_texture: m.emissive_texture.map(|t| t.index),
             base_texcoord: m.base_color_texture.map_or(0, |t| t.texcoord.min(1)),
             emissive_texcoord: m.emissive_texture.map_or(0, |t| t.texcoord.min(1)),
-            w_diffuse,
+            w_diffuse: non_metal - w_pane,
             alpha,
+            w_pane,
+            ior: m.transparency.ior,
         }
+    }
+
+    /// Weight of the metal lobe.
+    pub fn w_metal(&self) -> f32 {
+        1.0 - self.w_diffuse - self.w_pane
     }
 
     /// Whether the BSDF has a non-delta part (so light sampling can help).
     pub fn has_smooth_part(&self) -> bool {
-        self.w_diffuse > 0.0 || self.alpha > 0.0
+        self.w_diffuse > 0.0 || (self.alpha > 0.0 && self.w_metal() > 0.0)
+    }
+
+    /// What the pane passes straight through at incidence cosine `cos`, `w_pane × T(θ)` (times
+    /// C, the caller's); 0 without a pane.
+    pub fn pane_transmission(&self, cos: f32) -> f32 {
+        if self.w_pane <= 0.0 {
+            return 0.0;
+        }
+        self.w_pane * (1.0 - crate::scene::pane_reflectance(cos, self.ior))
     }
 }
 
@@ -67,8 +91,10 @@ pub struct BsdfSample {
     pub weight: Vec3,
     /// Solid-angle pdf of the non-delta part at `wi` (for MIS); 0 for a delta sample.
     pub pdf: f32,
-    /// Whether the sample came from the perfect mirror.
+    /// Whether the sample came from the perfect mirror or the pane.
     pub delta: bool,
+    /// Whether it passed through the pane (`wi = −wo`, on the other side of the surface).
+    pub transmitted: bool,
 }
 
 /// Non-delta BSDF value `f(wo, wi)` and the solid-angle pdf with which [`sample`] produces `wi`
@@ -81,7 +107,7 @@ pub fn eval(m: &SurfaceMaterial, color: Vec3, n: Vec3, wo: Vec3, wi: Vec3) -> (V
     }
     let mut f = color * (m.w_diffuse * std::f32::consts::FRAC_1_PI);
     let mut pdf = m.w_diffuse * cos_i * std::f32::consts::FRAC_1_PI;
-    let w_metal = 1.0 - m.w_diffuse;
+    let w_metal = m.w_metal();
     if m.alpha > 0.0 && w_metal > 0.0 {
         let h = (wi + wo).normalize();
         let d = ggx_d(n.dot(h).max(0.0), m.alpha);
@@ -195,8 +221,9 @@ impl GgxAlbedo {
     }
 }
 
-/// Samples the BSDF: `u_lobe` picks the lobe (Lambert with probability `w_diffuse`), `u`
-/// the direction. `None` when the sampled direction falls below the surface.
+/// Samples the BSDF: `u_lobe` picks the lobe (Lambert with probability `w_diffuse`, the pane
+/// with `w_pane`, split into reflection and transmission by R(θ), else the metal), `u` the
+/// direction. `None` when the sampled direction falls below the surface.
 pub fn sample(
     m: &SurfaceMaterial,
     color: Vec3,
@@ -207,12 +234,29 @@ pub fn sample(
 ) -> Option<BsdfSample> {
     let wi = if u_lobe < m.w_diffuse {
         to_world(cosine_hemisphere(u), n)
+    } else if u_lobe < m.w_diffuse + m.w_pane {
+        // The pane: reflect with probability R(θ), else pass straight through (the lobe's
+        // choice probabilities cancel its weights; the transmission is tinted).
+        let r = crate::scene::pane_reflectance(n.dot(wo), m.ior);
+        let reflected = (u_lobe - m.w_diffuse) < m.w_pane * r;
+        return Some(BsdfSample {
+            wi: if reflected {
+                reflect(wo, n).normalize()
+            } else {
+                -wo
+            },
+            weight: if reflected { Vec3::ONE } else { color },
+            pdf: 0.0,
+            delta: true,
+            transmitted: !reflected,
+        });
     } else if m.alpha == 0.0 {
         return Some(BsdfSample {
             wi: reflect(wo, n).normalize(),
             weight: color,
             pdf: 0.0,
             delta: true,
+            transmitted: false,
         });
     } else {
         let wo_l = to_local(wo, n);
@@ -232,6 +276,7 @@ pub fn sample(
         weight: f * (cos_i / pdf),
         pdf,
         delta: false,
+        transmitted: false,
     })
 }
 
@@ -263,6 +308,8 @@ mod tests {
             emissive_texcoord: 0,
             w_diffuse: 0.4,
             alpha: 0.2,
+            w_pane: 0.0,
+            ior: 1.5,
         };
         let n = Vec3::new(0.2, 0.9, -0.1).normalize();
         let wo = (n + Vec3::new(0.6, 0.0, 0.3)).normalize();

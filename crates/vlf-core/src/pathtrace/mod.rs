@@ -272,7 +272,9 @@ impl<'a> PreparedScene<'a> {
                 light: NONE,
             })
             .collect();
-        let mut bvh = Bvh::build(tris);
+        let mut bvh = Bvh::build(tris).with_masks(std::sync::Arc::new(
+            crate::lightfield::AlphaMasks::from_scene(scene),
+        ));
         let lights = LightSet::build(scene, &materials, &mut bvh.triangles);
         let uvs = bvh
             .triangles
@@ -286,6 +288,11 @@ impl<'a> PreparedScene<'a> {
             uvs,
             lights,
         }
+    }
+
+    /// Whether a material has a thin glass pane (rays may then pass surfaces).
+    pub fn has_panes(&self) -> bool {
+        self.materials.iter().any(|m| m.w_pane > 0.0)
     }
 
     fn texture(&self, index: Option<u32>, uv: Vec2) -> Vec3 {
@@ -306,11 +313,12 @@ impl<'a> PreparedScene<'a> {
         uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
     }
 
-    /// Emitted radiance of leaf-order triangle `tri` at barycentrics `(b1, b2)` (front face).
+    /// Emitted radiance of leaf-order triangle `tri` at barycentrics `(b1, b2)` (front face;
+    /// none where its alpha mask leaves no surface).
     pub fn emission(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
         let t = &self.bvh.triangles[tri as usize];
         let m = &self.materials[t.material as usize];
-        if m.emission == Vec3::ZERO {
+        if m.emission == Vec3::ZERO || self.bvh.masks().cuts_at(t.prim, b1, b2) {
             return Vec3::ZERO;
         }
         m.emission
@@ -399,6 +407,12 @@ impl<'a> PreparedScene<'a> {
                 break;
             }
             beta *= s.weight;
+            // Through a pane the path goes on from the surface's other side.
+            let origin = if s.transmitted {
+                offset_ray_origin(p, -n)
+            } else {
+                origin
+            };
             if depth >= RR_DEPTH {
                 let q = beta.max_element().min(RR_MAX_SURVIVAL);
                 if rng.next_f32() >= q {
@@ -478,14 +492,61 @@ impl<'a> PreparedScene<'a> {
             }
             let (f, _) = material::eval(m, color, n, wo, inc.wi);
             let contrib = f * inc.irradiance * (cos_i / ((1.0 - lights.p_emitters) * s.pdf));
-            if contrib == Vec3::ZERO || self.bvh.occluded(&s.shadow_ray(origin, &inc)) {
-                Vec3::ZERO
-            } else {
-                contrib
+            if contrib == Vec3::ZERO {
+                return Vec3::ZERO;
             }
+            // A delta light reaches through panes (no path could find it otherwise: a delta
+            // light behind a delta transmission); emitters' light reaches through them by BSDF
+            // sampling only, so their shadow rays stop at a pane.
+            contrib * self.shadow_transmittance(&s.shadow_ray(origin, &inc))
         } else {
             Vec3::ZERO
         }
+    }
+
+    /// What of a delta light's light reaches the origin of its shadow `ray` (towards a sun: no
+    /// end; to a point or spot light: `tmax` 1 with the light at `origin + dir`): 1 through
+    /// nothing, the product of the panes' `w_pane × T(θ) × C` through panes only, 0 where
+    /// anything else blocks it (at most 16 panes).
+    pub fn shadow_transmittance(&self, ray: &Ray) -> Vec3 {
+        let d = Vec3::from(ray.dir);
+        let wi = d.normalize();
+        let end = ray
+            .tmax
+            .is_finite()
+            .then(|| Vec3::from(ray.origin) + d * ray.tmax);
+        let mut t = Vec3::ONE;
+        let mut ray = *ray;
+        for _ in 0..16 {
+            let hit = self.bvh.closest_hit(&ray);
+            if !hit.is_hit() {
+                return t;
+            }
+            let tri = self.bvh.triangles[hit.tri as usize];
+            let m = &self.materials[tri.material as usize];
+            let [p0, p1, p2] = tri.corners();
+            let ng = (p1 - p0).cross(p2 - p0).normalize();
+            let pass = m.pane_transmission(ng.dot(wi));
+            if pass <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let uv = self.uv_at(hit.tri, m.base_texcoord, hit.u, hit.v);
+            t *= m.base_color * self.texture(m.base_texture, uv) * pass;
+            let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+            let from = offset_ray_origin(p, if ng.dot(wi) > 0.0 { ng } else { -ng });
+            ray = match end {
+                Some(end) => {
+                    let rest = end - from;
+                    // Past the segment's end (the pane lies within an ulp of it): done.
+                    if rest.dot(d) <= 0.0 {
+                        return t;
+                    }
+                    Ray::new(from, rest, 1.0)
+                }
+                None => Ray::new(from, wi, f32::INFINITY),
+            };
+        }
+        Vec3::ZERO
     }
 }
 

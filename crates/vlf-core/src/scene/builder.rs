@@ -1,9 +1,9 @@
 //! Building scenes in code: analytic test scenes (furnaces, the stability suite) and tools.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::faces::{RawTriangle, build_faces};
-use super::{Aabb, Corners, Material, MaterialKind, Scene, fit_similarity};
+use super::{Aabb, Corners, Material, MaterialKind, Scene, Texture, Transparency, fit_similarity};
 
 /// Accumulates triangles and materials, then builds a [`Scene`] exactly as the glTF importer
 /// does (faces merged, VLF transform fitted).
@@ -11,6 +11,7 @@ use super::{Aabb, Corners, Material, MaterialKind, Scene, fit_similarity};
 pub struct SceneBuilder {
     triangles: Vec<RawTriangle>,
     materials: Vec<Material>,
+    textures: Vec<Texture>,
 }
 
 impl SceneBuilder {
@@ -30,6 +31,7 @@ impl SceneBuilder {
             kind: MaterialKind::Diffuse,
             metallic: 0.0,
             roughness: 1.0,
+            transparency: Transparency::default(),
         })
     }
 
@@ -45,6 +47,7 @@ impl SceneBuilder {
             kind: MaterialKind::Mirror,
             metallic: 1.0,
             roughness: 0.0,
+            transparency: Transparency::default(),
         })
     }
 
@@ -52,6 +55,12 @@ impl SceneBuilder {
     pub fn material(&mut self, m: Material) -> u32 {
         self.materials.push(m);
         (self.materials.len() - 1) as u32
+    }
+
+    /// Adds a texture; returns its index in [`Scene::textures`] (for a [`super::TexRef`]).
+    pub fn texture(&mut self, t: Texture) -> u32 {
+        self.textures.push(t);
+        (self.textures.len() - 1) as u32
     }
 
     /// Adds a triangle, counter-clockwise seen from its front.
@@ -131,6 +140,25 @@ impl SceneBuilder {
         self.triangle([a, c, d], material)
     }
 
+    /// Adds a planar quad `a b c d` like [`quad`](Self::quad), with `TEXCOORD_0` `uv` at its
+    /// corners.
+    pub fn uv_quad(&mut self, [a, b, c, d]: [Vec3; 4], uv: [Vec2; 4], material: u32) -> &mut Self {
+        for (p, uv) in [
+            ([a, b, c], [uv[0], uv[1], uv[2]]),
+            ([a, c, d], [uv[0], uv[2], uv[3]]),
+        ] {
+            self.triangle_with(
+                p,
+                material,
+                Corners {
+                    uv,
+                    ..Corners::default()
+                },
+            );
+        }
+        self
+    }
+
     /// Adds an axis-aligned box `[lo, hi]`; `inward` makes the fronts face the inside (a room).
     pub fn aabox(&mut self, lo: Vec3, hi: Vec3, inward: bool, material: u32) -> &mut Self {
         let p = |x: usize, y: usize, z: usize| {
@@ -168,7 +196,7 @@ impl SceneBuilder {
             triangles,
             faces,
             materials: self.materials,
-            textures: Vec::new(),
+            textures: self.textures,
             cameras: Vec::new(),
             suns: Vec::new(),
             lights: Vec::new(),

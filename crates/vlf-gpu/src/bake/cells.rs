@@ -12,6 +12,7 @@ common::bindings! {
         cell_count: READ_WRITE,
         cells: READ_WRITE,
         overflow: READ_WRITE,
+        alpha_masks: READ,
     }
 }
 

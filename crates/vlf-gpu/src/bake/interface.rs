@@ -14,6 +14,8 @@ common::bindings! {
         tile_index: READ,
         frames: READ,
         spec_escape: READ_WRITE,
+        panes: READ,
+        pane_energy: READ_WRITE,
     }
 }
 

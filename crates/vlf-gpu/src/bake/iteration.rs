@@ -98,6 +98,7 @@ pub(super) fn run_iteration(
     encoder.clear_buffer(&b.accumulators, 0, None);
     encoder.clear_buffer(&b.next_tiles, 0, None);
     encoder.clear_buffer(&b.spec_escape, 0, None);
+    encoder.clear_buffer(&b.pane_energy, 0, None);
     queue.submit(Some(encoder.finish()));
 
     let n = host.params.resolution;
@@ -186,6 +187,17 @@ pub(super) fn run_iteration(
         &mut state.next,
         &mut state.irradiance,
     );
+    if scene.panes.iter().any(|p| p.weight > 0.0) {
+        let pe: Vec<[f32; 4]> =
+            read_buffer(device, queue, &b.pane_energy).map_err(|_| GpuBakeError::Readback)?;
+        let sum = |k: usize| pe.iter().map(|v| f64::from(v[k])).sum::<f64>();
+        reference::PaneEnergy {
+            absorbed: sum(0),
+            escaped: sum(1),
+            sun_through: sum(2),
+        }
+        .apply(&mut e);
+    }
     if let Some(sp) = &host.setup.spec {
         let mut next_tiles: Vec<[f32; 4]> =
             read_buffer(device, queue, &b.next_tiles).map_err(|_| GpuBakeError::Readback)?;

@@ -29,6 +29,8 @@ pub enum BakeBuffer {
     Triangles,
     /// `BakeFace` per face.
     Faces,
+    /// The triangles' alpha masks (`AlphaMasks::words`).
+    AlphaMasks,
     /// Texel centres, face id in `w`.
     TexelCenter,
     /// Indices of the texels the gather visits.
@@ -43,6 +45,10 @@ pub enum BakeBuffer {
     NextTiles,
     /// Radiance escaping through mirrors, per ray.
     SpecEscape,
+    /// Per face, its thin glass pane (`PaneFace`).
+    Panes,
+    /// What panes absorbed, let escape and passed of a sun, per ray.
+    PaneEnergy,
     /// Crossings per ray.
     CellCount,
     /// Per-ray depth lists (`CellEntry`, k_max per ray).
@@ -69,6 +75,7 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Triangles => "Bake::triangles",
             BakeBuffer::Faces => "Bake::faces",
+            BakeBuffer::AlphaMasks => "Bake::alpha_masks",
             BakeBuffer::TexelCenter => "Bake::texel_center",
             BakeBuffer::ActiveTexels => "Bake::active_texels",
             BakeBuffer::Unshot => "Bake::unshot",
@@ -76,6 +83,8 @@ impl BakeBuffer {
             BakeBuffer::Frames => "Bake::frames",
             BakeBuffer::NextTiles => "Bake::next_tiles",
             BakeBuffer::SpecEscape => "Bake::spec_escape",
+            BakeBuffer::Panes => "Bake::panes",
+            BakeBuffer::PaneEnergy => "Bake::pane_energy",
             BakeBuffer::CellCount => "Bake::cell_count",
             BakeBuffer::Cells => "Bake::cells",
             BakeBuffer::Crossings => "Bake::crossings",
@@ -93,6 +102,7 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Triangles => "the prepared triangles",
             BakeBuffer::Faces => "the prepared faces",
+            BakeBuffer::AlphaMasks => "the alpha masks",
             BakeBuffer::TexelCenter => "the texel centres",
             BakeBuffer::ActiveTexels => "the active texel list",
             BakeBuffer::Unshot => "the unshot radiance (texels and mirror tiles)",
@@ -100,6 +110,8 @@ impl BakeBuffer {
             BakeBuffer::Frames => "the fixed directions' frames",
             BakeBuffer::NextTiles => "the mirror tile values of one iteration",
             BakeBuffer::SpecEscape => "the escaping radiance of every ray",
+            BakeBuffer::Panes => "the faces' panes",
+            BakeBuffer::PaneEnergy => "the panes' energy terms of every ray",
             BakeBuffer::CellCount => "the crossing counts of every ray",
             BakeBuffer::Cells => "the ray depth lists",
             BakeBuffer::Crossings => "the ray crossing lists",
@@ -127,6 +139,8 @@ impl BakeBuffer {
             self,
             BakeBuffer::Triangles
                 | BakeBuffer::Faces
+                | BakeBuffer::AlphaMasks
+                | BakeBuffer::Panes
                 | BakeBuffer::TexelCenter
                 | BakeBuffer::ActiveTexels
                 | BakeBuffer::Unshot
@@ -142,9 +156,10 @@ impl BakeBuffer {
         match self {
             BakeBuffer::Directions => U::UNIFORM | U::COPY_DST,
             BakeBuffer::Unshot => U::STORAGE | U::COPY_DST,
-            BakeBuffer::NextTiles | BakeBuffer::SpecEscape | BakeBuffer::Accumulators => {
-                U::STORAGE | U::COPY_SRC | U::COPY_DST
-            }
+            BakeBuffer::NextTiles
+            | BakeBuffer::SpecEscape
+            | BakeBuffer::PaneEnergy
+            | BakeBuffer::Accumulators => U::STORAGE | U::COPY_SRC | U::COPY_DST,
             BakeBuffer::Overflow => U::STORAGE | U::COPY_SRC,
             BakeBuffer::BinStart | BakeBuffer::BinTris | BakeBuffer::ReflectItems => {
                 U::STORAGE | U::COPY_DST
@@ -457,7 +472,7 @@ impl BakePlan {
         let cells = u64::from(self.resolution).pow(2);
         let crossings = cells * u64::from(self.crossings_per_ray());
         let v4 = size_of::<[f32; 4]>() as u64;
-        let mut out = Vec::with_capacity(15 + 3 * self.chunks.len());
+        let mut out = Vec::with_capacity(18 + 3 * self.chunks.len());
         for (k, c) in self.chunks.iter().enumerate() {
             let item = size_of::<ReflectItem>() as u64;
             out.extend([
@@ -469,6 +484,7 @@ impl BakePlan {
         out.extend([
             one(B::Triangles, self.triangles, each(&scene.triangles)),
             one(B::Faces, self.faces, each(&scene.faces)),
+            one(B::AlphaMasks, scene.masks.word_count() as u64, 4),
             one(B::TexelCenter, self.texels, v4),
             one(B::ActiveTexels, self.active_texels, 4),
             one(B::Unshot, self.texels + self.mirror.tile_values, v4),
@@ -476,6 +492,8 @@ impl BakePlan {
             one(B::Frames, self.mirror.frames * 3, v4),
             one(B::NextTiles, self.mirror.tile_values, v4),
             one(B::SpecEscape, cells, v4),
+            one(B::Panes, self.faces, each(&scene.panes)),
+            one(B::PaneEnergy, cells, v4),
             one(B::CellCount, cells, 4),
             one(B::Cells, crossings, size_of::<CellEntry>() as u64),
             one(B::Crossings, crossings, size_of::<Crossing>() as u64),

@@ -220,7 +220,7 @@ impl<'a> Host<'a> {
                 items_base: self.slots[i].items_base,
                 items_count: self.items(i),
                 has_tiles: u32::from(self.tiles.is_some()),
-                _pad: 0,
+                has_panes: u32::from(self.scene.panes.iter().any(|p| p.weight > 0.0)),
             };
             let at = i * DIR_STRIDE as usize;
             bytes[at..at + size_of::<BakeDirection>()].copy_from_slice(bytemuck::bytes_of(&g));
@@ -290,6 +290,7 @@ impl Allocator<'_> {
 /// The buffers of one scene that are not split by direction.
 pub(super) struct SceneBuffers {
     pub triangles: wgpu::Buffer,
+    pub alpha_masks: wgpu::Buffer,
     pub faces: wgpu::Buffer,
     pub texel_center: wgpu::Buffer,
     pub active_texels: wgpu::Buffer,
@@ -298,6 +299,8 @@ pub(super) struct SceneBuffers {
     pub frames: wgpu::Buffer,
     pub next_tiles: wgpu::Buffer,
     pub spec_escape: wgpu::Buffer,
+    pub panes: wgpu::Buffer,
+    pub pane_energy: wgpu::Buffer,
     pub cell_count: wgpu::Buffer,
     pub cells: wgpu::Buffer,
     pub crossings: wgpu::Buffer,
@@ -385,6 +388,7 @@ impl SceneResources {
         let p = |b| plan.buffer(b);
         let b = SceneBuffers {
             triangles: alloc.init(p(B::Triangles), &scene.triangles),
+            alpha_masks: alloc.init(p(B::AlphaMasks), &scene.masks.words()),
             faces: alloc.init(p(B::Faces), &scene.faces),
             texel_center: alloc.init(p(B::TexelCenter), &centers),
             active_texels: alloc.init(p(B::ActiveTexels), &host.active),
@@ -393,6 +397,8 @@ impl SceneResources {
             frames: alloc.init(p(B::Frames), frames),
             next_tiles: alloc.empty(p(B::NextTiles)),
             spec_escape: alloc.empty(p(B::SpecEscape)),
+            panes: alloc.init(p(B::Panes), &scene.panes),
+            pane_energy: alloc.empty(p(B::PaneEnergy)),
             cell_count: alloc.empty(p(B::CellCount)),
             cells: alloc.empty(p(B::Cells)),
             crossings: alloc.empty(p(B::Crossings)),
@@ -417,6 +423,7 @@ impl SceneResources {
                         cell_count: &b.cell_count,
                         cells: &b.cells,
                         overflow: &b.overflow,
+                        alpha_masks: &b.alpha_masks,
                     },
                 ),
                 reflect: pipelines.reflect.bind_group(
@@ -446,6 +453,8 @@ impl SceneResources {
                 tile_index: &b.tile_index,
                 frames: &b.frames,
                 spec_escape: &b.spec_escape,
+                panes: &b.panes,
+                pane_energy: &b.pane_energy,
             },
         );
         let gather = pipelines.gather.bind_group(

@@ -35,6 +35,7 @@
 //! ports the fallback of a read whose quad is not clear, its visibility rays traced through the
 //! same BVH (and counted in the same loop budget) as the gather's rays.
 
+mod grid;
 mod plan;
 
 use std::sync::Arc;
@@ -58,6 +59,7 @@ use crate::readback::{read_buffer, storage_buffer};
 use crate::render::RenderError;
 use crate::render::upload::float_tile_textures;
 use crate::{GpuContext, shaders};
+use grid::{contact_entries, grid_data};
 pub use plan::{GatherBuffer, GatherCounts, GatherPlan};
 
 /// Invocations per workgroup (`@workgroup_size` of `gather_texels.wgsl`).
@@ -174,6 +176,7 @@ impl GatherPipelines {
                 storage_entry(1, true),
                 storage_entry(2, true),
                 uniform_entry::<RtSceneInfo>(3, false),
+                storage_entry(6, true),
             ],
         });
         let vis = wgpu::ShaderStages::COMPUTE;
@@ -426,6 +429,7 @@ pub fn final_gather_with(
                 entry(1, &gpu_scene.triangles),
                 entry(2, &gpu_scene.blob),
                 entry(3, &gpu_scene.info),
+                entry(6, &gpu_scene.masks),
             ],
         });
         let [ind, dir] = Estimator::of(
@@ -552,25 +556,6 @@ fn field_bind_group(
         ],
     });
     Ok((bind_group, [irradiance_at, contacts_at]))
-}
-
-/// Per-texel contact bits packed 16 to a vec4 entry: texel t's byte is byte t % 4
-/// (little-endian) of word (t / 4) % 4 of entry t / 16 (`contact_bits` in the shader).
-fn contact_entries(bits: &[u8]) -> Vec<[f32; 4]> {
-    bits.chunks(16)
-        .map(|c| {
-            let mut b = [0u8; 16];
-            b[..c.len()].copy_from_slice(c);
-            std::array::from_fn(|w| {
-                f32::from_bits(u32::from_le_bytes([
-                    b[4 * w],
-                    b[4 * w + 1],
-                    b[4 * w + 2],
-                    b[4 * w + 3],
-                ]))
-            })
-        })
-        .collect()
 }
 
 /// The estimates of every texel of `grid` (`None`: no open point), or `None` when a step of
@@ -739,52 +724,6 @@ fn chunk_texels(
         });
     }
     Ok(requested.max(1).min(count).min(fit))
-}
-
-/// The grid buffer's contents (see `gather_texels.wgsl`) and its section offsets (texels,
-/// chart starts, chart triangles, chart normals).
-fn grid_data(grid: &Grid) -> (Vec<[f32; 4]>, [u32; 4]) {
-    let atlas = &grid.atlas;
-    let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&atlas.faces).to_vec();
-    let grid_texels = data.len() as u32;
-    for ((c, a), f) in atlas
-        .texel_center
-        .iter()
-        .zip(&atlas.texel_area)
-        .zip(&grid.tex_face)
-    {
-        data.push([c[0], c[1], c[2], *a]);
-        data.push([f32::from_bits(*f), 0.0, 0.0, 0.0]);
-    }
-    let chart_start = data.len() as u32;
-    let mut tris: Vec<[f32; 4]> = Vec::new();
-    let mut normals: Vec<[f32; 4]> = Vec::new();
-    for fi in 0..atlas.faces.len() {
-        data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-        for (t, n) in grid
-            .charts
-            .triangles(fi)
-            .iter()
-            .zip(grid.charts.normals(fi))
-        {
-            let at = match n {
-                Some(n) => {
-                    let at = normals.len() as u32;
-                    normals.extend(n.map(|n| n.extend(0.0).to_array()));
-                    at
-                }
-                None => u32::MAX,
-            };
-            tris.push([t[0].x, t[0].y, t[1].x, t[1].y]);
-            tris.push([t[2].x, t[2].y, f32::from_bits(at), 0.0]);
-        }
-    }
-    data.push([f32::from_bits((tris.len() / 2) as u32), 0.0, 0.0, 0.0]);
-    let chart_tris = data.len() as u32;
-    data.extend(tris);
-    let chart_normals = data.len() as u32;
-    data.extend(normals);
-    (data, [grid_texels, chart_start, chart_tris, chart_normals])
 }
 
 #[cfg(test)]

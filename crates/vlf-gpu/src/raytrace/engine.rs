@@ -47,7 +47,11 @@ impl RayEngine {
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RayEngine::scene_layout"),
-            entries: &[storage_entry(0, true), storage_entry(1, true)],
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                storage_entry(6, true),
+            ],
         });
         let rays_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RayEngine::rays_layout"),
@@ -105,6 +109,10 @@ impl RayEngine {
                 wgpu::BindGroupEntry {
                     binding: 1,
                     resource: scene.triangles.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: scene.masks.as_entire_binding(),
                 },
             ],
         })

@@ -51,6 +51,10 @@ pub struct GpuBvh {
     pub nodes: wgpu::Buffer,
     /// Leaf-order triangles (`array<RtTriangle>`).
     pub triangles: wgpu::Buffer,
+    /// The BVH's alpha masks ([`vlf_core::lightfield::AlphaMasks::words`], `array<u32>`,
+    /// `shaders/common/alpha_mask.wgsl`, bind group 1 binding 6), indexed by
+    /// `RtTriangle::prim`.
+    pub masks: wgpu::Buffer,
 }
 
 impl GpuBvh {
@@ -68,6 +72,8 @@ impl GpuBvh {
             "triangle buffer",
             std::mem::size_of_val(tris.as_slice()),
         )?;
+        let mask_words = bvh.masks().words();
+        check_binding(device, "alpha masks", 4 * mask_words.len())?;
         let dummy = [vlf_core::pathtrace::RtTriangle::default()];
         let tri_slice: &[vlf_core::pathtrace::RtTriangle] =
             if tris.is_empty() { &dummy } else { tris };
@@ -81,6 +87,11 @@ impl GpuBvh {
                 device,
                 &format!("{owner}::triangles"),
                 bytemuck::cast_slice(tri_slice),
+            ),
+            masks: storage_init(
+                device,
+                &format!("{owner}::masks"),
+                bytemuck::cast_slice(&mask_words),
             ),
         })
     }
@@ -120,6 +131,8 @@ pub struct GpuScene {
     pub nodes: wgpu::Buffer,
     /// Leaf-order triangles (`array<RtTriangle>`).
     pub triangles: wgpu::Buffer,
+    /// Alpha masks (see [`GpuBvh::masks`]).
+    pub masks: wgpu::Buffer,
     /// Shading data (`array<vec4<f32>>`, see [`scene`]).
     pub blob: wgpu::Buffer,
     /// Where the blob's sections start (uniform [`crate::layout::RtSceneInfo`]).
@@ -146,6 +159,7 @@ impl GpuScene {
         Ok(Self {
             nodes: bvh.nodes,
             triangles: bvh.triangles,
+            masks: bvh.masks,
             blob,
             info,
             packed,

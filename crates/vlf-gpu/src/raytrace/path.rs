@@ -127,6 +127,7 @@ impl GpuPathTracer {
                 storage_entry(1, true),
                 storage_entry(2, true),
                 uniform_entry::<RtSceneInfo>(3, false),
+                storage_entry(6, true),
             ],
         });
         let wave_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -582,11 +583,21 @@ impl GpuPathTracer {
             ],
         });
         Ok(Resources {
-            scene_bg: bind_group(
-                "PathTracer::scene_bind_group",
-                &self.scene_layout,
-                &[&scene.nodes, &scene.triangles, &scene.blob, &scene.info],
-            ),
+            scene_bg: device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("PathTracer::scene_bind_group"),
+                layout: &self.scene_layout,
+                entries: &[
+                    (0, &scene.nodes),
+                    (1, &scene.triangles),
+                    (2, &scene.blob),
+                    (3, &scene.info),
+                    (6, &scene.masks),
+                ]
+                .map(|(binding, b)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: b.as_entire_binding(),
+                }),
+            }),
             wave_bg: bind_group(
                 "PathTracer::wave_bind_group",
                 &self.wave_layout,

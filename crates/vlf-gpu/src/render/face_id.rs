@@ -5,6 +5,8 @@
 //! | `MIRROR_STENCIL` for mirror and mixed ones) with that reference, replaced wherever depth
 //! passes, so the stencil ends up marking the pixels whose visible face is textured or a
 //! mirror (0 elsewhere).
+//! Light fields with alpha masks draw with the shader's masked entry points, which discard the
+//! fragments a mask cuts (the depth buffer then holds what lies behind the holes).
 //! Shader: `shaders/render_face_id.wgsl`.
 
 use super::targets::{DEPTH_STENCIL_FORMAT, FACE_ID_FORMAT, Targets};
@@ -28,7 +30,8 @@ impl FaceIdPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        let (pass_layout, bind_group) = geometry_pass_layout(device, "FaceId", &[&lf.triangles]);
+        let (pass_layout, bind_group) =
+            geometry_pass_layout(device, "FaceId", &[&lf.triangles, &lf.uvs], &lf.alpha_masks);
         let stencil = depth_format == DEPTH_STENCIL_FORMAT;
         let replace = wgpu::StencilFaceState {
             compare: wgpu::CompareFunction::Always,
@@ -60,6 +63,7 @@ impl FaceIdPass {
             &pass_layout,
             &[FACE_ID_FORMAT],
             depth,
+            lf.has_masks,
         );
         Self {
             pipeline,

@@ -201,6 +201,9 @@ pub struct FinalRadiancePass {
     present_pipelines: HashMap<(wgpu::TextureFormat, bool), Vec<wgpu::RenderPipeline>>,
     /// Format of pass 3's depth buffer, which the window's draws test against.
     depth_format: wgpu::TextureFormat,
+    /// Whether the light field has alpha masks: the window's draws then discard the fragments
+    /// they cut (as passes 3 and 4 do).
+    masks: bool,
 }
 
 impl FinalRadiancePass {
@@ -217,6 +220,7 @@ impl FinalRadiancePass {
         mirrors: bool,
         attributes: bool,
         depth_format: wgpu::TextureFormat,
+        masks: bool,
     ) -> Self {
         let vis = wgpu::ShaderStages::FRAGMENT;
         let vertex = wgpu::ShaderStages::VERTEX;
@@ -230,7 +234,8 @@ impl FinalRadiancePass {
                 texture_entry(3, vis, unfiltered),
                 texture_entry(4, vis | vertex, wgpu::TextureSampleType::Uint),
                 texture_entry(5, vis, unfiltered),
-                storage_entry(6, vis, false),
+                storage_entry(super::pipelines::MASK_BINDING, vis, true),
+                storage_entry(7, vis, false),
                 texture_entry(10, vis, unfiltered),
                 texture_entry(11, vis, wgpu::TextureSampleType::Uint),
                 texture_entry(12, vis, unfiltered),
@@ -267,7 +272,7 @@ impl FinalRadiancePass {
             .map(|tracing| present_variants(textures, mirrors, tracing, attributes, stencil));
         let pipelines = variants[..1 + usize::from(mirrors)]
             .iter()
-            .map(|v| Self::create_pipeline(device, &pipeline_layout, &module, *v, None))
+            .map(|v| Self::create_pipeline(device, &pipeline_layout, &module, *v, None, masks))
             .collect();
         Self {
             pass_layout,
@@ -280,6 +285,7 @@ impl FinalRadiancePass {
             present_variants,
             present_pipelines: HashMap::new(),
             depth_format,
+            masks,
         }
     }
 
@@ -309,6 +315,7 @@ impl FinalRadiancePass {
         module: &wgpu::ShaderModule,
         variant: Variant,
         present: Option<(wgpu::TextureFormat, wgpu::TextureFormat)>,
+        masks: bool,
     ) -> wgpu::RenderPipeline {
         let flag = |b: bool| f64::from(u8::from(b));
         let constants = [
@@ -316,6 +323,7 @@ impl FinalRadiancePass {
             ("EMISSIVE_TEXTURES", flag(variant.textures.emissive)),
             ("SPECULAR", flag(variant.specular)),
             ("TRACING", flag(variant.tracing)),
+            ("MASKS", flag(masks)),
             ("ATTRIBUTES", flag(variant.attributes)),
         ];
         // The vertex stage reads the attributes too (vs_surface).
@@ -462,7 +470,11 @@ impl FinalRadiancePass {
                 tex(4, &lf.faces_view),
                 tex(5, &lf.atlas_view),
                 wgpu::BindGroupEntry {
-                    binding: 6,
+                    binding: super::pipelines::MASK_BINDING,
+                    resource: lf.alpha_masks.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
                     resource: targets.accum.as_entire_binding(),
                 },
                 tex(10, &targets.uv_view),
@@ -547,13 +559,13 @@ impl FinalRadiancePass {
         let key = (format, self.tracing);
         let variants = &self.present_variants[usize::from(self.tracing)];
         if !self.present_pipelines.contains_key(&key) {
-            let (layout, module) = (&self.pipeline_layout, &self.module);
+            let (layout, module, masks) = (&self.pipeline_layout, &self.module, self.masks);
             let sky = Self::create_sky_pipeline(device, layout, module, format, self.depth_format);
             let present = Some((format, self.depth_format));
             let pipelines = std::iter::once(sky)
                 .chain(
                     (variants.iter())
-                        .map(|v| Self::create_pipeline(device, layout, module, *v, present)),
+                        .map(|v| Self::create_pipeline(device, layout, module, *v, present, masks)),
                 )
                 .collect();
             self.present_pipelines.insert(key, pipelines);

@@ -48,6 +48,7 @@ use vlf_core::pathtrace::sampling::{
     ggx_g1, ggx_sample_vndf, pcg_hash, reflect, to_local, to_world,
 };
 use vlf_core::pathtrace::{Bvh, Ray, RtTriangle};
+use vlf_core::scene::pane_reflectance;
 use wgpu::util::DeviceExt;
 
 use super::RenderError;
@@ -104,7 +105,7 @@ pub fn build_bvh(lf: &LightField) -> Bvh {
             light: vlf_core::pathtrace::NONE,
         })
         .collect();
-    Bvh::build(tris)
+    Bvh::build(tris).with_masks(std::sync::Arc::new(lf.alpha_masks()))
 }
 
 /// The traced branch's scene on the GPU: the BVH and the corner uvs in leaf order
@@ -210,7 +211,28 @@ pub fn traced_specular(
     let (ns, smooth) = shading_normal(lookup, face, s, side);
     let c = specular_reflectance(lf, lookup, face, s);
     let origin = offset_ray_origin(p, side);
-    let alpha = lf.shading.materials[f.material as usize].specular_alpha;
+    let m = &lf.shading.materials[f.material as usize];
+    if m.pane > 0.0 {
+        // A pane: its reflection, pane weight × R(θ) (untinted), and what lies behind it, `c`
+        // (pane weight × C) × T(θ) straight through. The tiles stand in for the reflection
+        // only.
+        let r = pane_reflectance(d.dot(n), m.ior);
+        let (reflected, cut) = trace_chain(
+            lf,
+            bvh,
+            lookup,
+            origin,
+            (d - 2.0 * d.dot(n) * n).normalize(),
+            Vec3::splat(m.pane * r),
+        );
+        let behind = offset_ray_origin(p, -side);
+        let (passed, _) = trace_chain(lf, bvh, lookup, behind, d, c * (1.0 - r));
+        return TracedSpecular {
+            radiance: reflected + passed,
+            tiles: if cut { 1.0 } else { 0.0 },
+        };
+    }
+    let alpha = m.specular_alpha;
     let none = TracedSpecular {
         radiance: Vec3::ZERO,
         tiles: 0.0,
@@ -265,10 +287,12 @@ fn trace_chain(
 ) -> (Vec3, bool) {
     let (mut origin, mut dir, mut throughput) = (origin, dir, throughput);
     let mut depth = 1;
+    // The diffuse part of panes passed on the way.
+    let mut seen = Vec3::ZERO;
     loop {
         let hit = bvh.closest_hit(&Ray::new(origin, dir, f32::MAX));
         if !hit.is_hit() {
-            return (throughput * lf.params.sky, false);
+            return (seen + throughput * lf.params.sky, false);
         }
         let t = &bvh.triangles[hit.tri as usize];
         let face = t.material;
@@ -280,11 +304,22 @@ fn trace_chain(
         let n = f.normal();
         let hside = if n.dot(-dir) >= 0.0 { 0 } else { 1 };
         let s = PixelSurface::of_triangle(lf, &lookup.attributes, t.prim as usize, b1, b2, hside);
+        let m = &lf.shading.materials[f.material as usize];
+        if m.pane > 0.0 && depth < MAX_DEPTH {
+            // A pane along the chain: its diffuse part, then on straight through it (its own
+            // reflection, which only its tiles hold in the ray's direction, is left out).
+            seen += throughput * surface_radiance(lf, lookup, face, hside, q, &s);
+            throughput *= specular_reflectance(lf, lookup, face, &s)
+                * (1.0 - pane_reflectance(dir.dot(n), m.ior));
+            origin = offset_ray_origin(q, if n.dot(dir) > 0.0 { n } else { -n });
+            depth += 1;
+            continue;
+        }
         match f.kind {
             FACE_DIFFUSE => {
                 let side = hside;
                 let l = surface_radiance(lf, lookup, face, side, q, &s);
-                return (throughput * l, false);
+                return (seen + throughput * l, false);
             }
             FACE_MIRROR if depth < MAX_DEPTH => {
                 throughput *= specular_reflectance(lf, lookup, face, &s);
@@ -298,7 +333,7 @@ fn trace_chain(
                 depth += 1;
             }
             // Cut off by the bound, or a mixed face: the pixel's own tiles.
-            _ => return (Vec3::ZERO, true),
+            _ => return (seen, true),
         }
     }
 }

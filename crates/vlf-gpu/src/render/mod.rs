@@ -336,6 +336,7 @@ impl Renderer {
                 mirrors,
                 attributes,
                 depth_format,
+                light_field.has_masks,
             ),
             display: DisplayPass::new(device, &globals_layout),
             timer: GpuTimer::new(device, &ctx.queue, TIMED_PASSES.len() as u32),

@@ -81,16 +81,27 @@ pub(super) fn sphere_pass_layout(
     (layout, bind_group)
 }
 
+/// The binding of the alpha masks in group 1 (`shaders/common/alpha_mask.wgsl`).
+pub(crate) const MASK_BINDING: u32 = 6;
+
 /// Group-1 layout and bind group of a scene-geometry pass (3, 4): `buffers` (the triangles,
-/// then any per-vertex data the pass pulls) as read-only storage bindings 0, 1, …
+/// then any per-vertex data the pass pulls) as read-only storage bindings 0, 1, …, and the
+/// light field's alpha masks at [`MASK_BINDING`]
 pub(super) fn geometry_pass_layout(
     device: &wgpu::Device,
     pass: &str,
     buffers: &[&wgpu::Buffer],
+    alpha_masks: &wgpu::Buffer,
 ) -> (wgpu::BindGroupLayout, wgpu::BindGroup) {
-    let entries: Vec<_> = (0..buffers.len() as u32)
+    let mut entries: Vec<_> = (0..buffers.len() as u32)
         .map(|i| storage_entry(i, wgpu::ShaderStages::VERTEX, true))
         .collect();
+    // The alpha masks (`common/alpha_mask.wgsl`), read by the masked entry points' fragments.
+    entries.push(storage_entry(
+        MASK_BINDING,
+        wgpu::ShaderStages::FRAGMENT,
+        true,
+    ));
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(&format!("{pass}::pass_layout")),
         entries: &entries,
@@ -98,8 +109,10 @@ pub(super) fn geometry_pass_layout(
     let entries: Vec<_> = buffers
         .iter()
         .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
+        .map(|(i, b)| (i as u32, *b))
+        .chain([(MASK_BINDING, alpha_masks)])
+        .map(|(binding, b)| wgpu::BindGroupEntry {
+            binding,
             resource: b.as_entire_binding(),
         })
         .collect();
@@ -113,6 +126,7 @@ pub(super) fn geometry_pass_layout(
 
 /// A vertex-pulling render pipeline (no vertex buffers, no culling) writing one colour target
 /// per format of `formats`.
+#[allow(clippy::too_many_arguments)]
 fn render_pipeline(
     device: &wgpu::Device,
     pass: &str,
@@ -121,6 +135,7 @@ fn render_pipeline(
     pass_layout: &wgpu::BindGroupLayout,
     formats: &[wgpu::TextureFormat],
     depth: Option<wgpu::DepthStencilState>,
+    (vs, fs): (&str, &str),
 ) -> wgpu::RenderPipeline {
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(&format!("{pass}::pipeline_layout")),
@@ -143,7 +158,7 @@ fn render_pipeline(
         layout: Some(&layout),
         vertex: wgpu::VertexState {
             module: &module,
-            entry_point: Some("vs_main"),
+            entry_point: Some(vs),
             compilation_options: Default::default(),
             buffers: &[],
         },
@@ -156,7 +171,7 @@ fn render_pipeline(
         multisample: wgpu::MultisampleState::default(),
         fragment: Some(wgpu::FragmentState {
             module: &module,
-            entry_point: Some("fs_main"),
+            entry_point: Some(fs),
             compilation_options: Default::default(),
             targets: &targets,
         }),
@@ -181,9 +196,13 @@ pub(super) fn sphere_pipeline(
         pass_layout,
         &[format],
         None,
+        ("vs_main", "fs_main"),
     )
 }
 
+/// A scene-geometry pass's pipeline; `masked` draws with the entry points that discard the
+/// fragments an alpha mask cuts (`vs_masked`, `fs_masked`), else `vs_main`, `fs_main`.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn geometry_pipeline(
     device: &wgpu::Device,
     pass: &str,
@@ -192,6 +211,7 @@ pub(super) fn geometry_pipeline(
     pass_layout: &wgpu::BindGroupLayout,
     formats: &[wgpu::TextureFormat],
     depth: wgpu::DepthStencilState,
+    masked: bool,
 ) -> wgpu::RenderPipeline {
     render_pipeline(
         device,
@@ -201,5 +221,10 @@ pub(super) fn geometry_pipeline(
         pass_layout,
         formats,
         Some(depth),
+        if masked {
+            ("vs_masked", "fs_masked")
+        } else {
+            ("vs_main", "fs_main")
+        },
     )
 }

@@ -27,8 +27,12 @@ impl PositionPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        let (pass_layout, bind_group) =
-            geometry_pass_layout(device, "Position", &[&lf.triangles, &lf.uvs]);
+        let (pass_layout, bind_group) = geometry_pass_layout(
+            device,
+            "Position",
+            &[&lf.triangles, &lf.uvs],
+            &lf.alpha_masks,
+        );
         let depth = wgpu::DepthStencilState {
             format: depth_format,
             depth_write_enabled: Some(false),
@@ -44,6 +48,7 @@ impl PositionPass {
             &pass_layout,
             &[POSITION_FORMAT, UV_FORMAT],
             depth,
+            lf.has_masks,
         );
         Self {
             pipeline,
@@ -120,8 +125,12 @@ impl AttributesPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        let (pass_layout, bind_group) =
-            geometry_pass_layout(device, "Attributes", &[&lf.triangles, &lf.attributes]);
+        let (pass_layout, bind_group) = geometry_pass_layout(
+            device,
+            "Attributes",
+            &[&lf.triangles, &lf.attributes, &lf.uvs],
+            &lf.alpha_masks,
+        );
         let depth = wgpu::DepthStencilState {
             format: depth_format,
             depth_write_enabled: Some(false),
@@ -137,6 +146,7 @@ impl AttributesPass {
             &pass_layout,
             &[ATTRIBUTES_FORMAT, ATTRIBUTE_WORDS_FORMAT],
             depth,
+            lf.has_masks,
         );
         Self {
             pipeline,

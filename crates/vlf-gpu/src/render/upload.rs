@@ -25,11 +25,13 @@
 //!   ([`face_record`]):
 //!   0: normal.xyz, kind | flags · 1: origin.xyz, texel_size · 2: u.xyz, width ·
 //!   3: v.xyz, height · 4: ρ_d/π (rgb), texel_base · 5: Le (rgb), 0 ·
-//!   6: base-colour texture, emissive texture, 0, 0 · 7: mirror reflectance (rgb,
-//!   [`specular_reflectance`]), GGX α of the metal lobe (`f32` bits). Pass 5 reads texels 0–4
-//!   of every face, 5 only for emitters, 6 only for textured faces ([`FLAG_DIFFUSE`] and the
-//!   other flags) and 7 only for non-diffuse faces: the reflectance for the visible one and
-//!   for mirrors along a traced chain, α for the visible one ([`super::mirror_trace`]).
+//!   6: base-colour texture, emissive texture, pane IOR, pane weight (`f32` bits; 1.5 and 0
+//!   without a pane) · 7: mirror reflectance (rgb, [`specular_reflectance`]; a pane's
+//!   transmission tint, pane weight × base colour), GGX α of the metal lobe (`f32` bits).
+//!   Pass 5 reads texels 0–4 of every face, 5 only for emitters, 6 only for textured faces and
+//!   panes ([`FLAG_DIFFUSE`] and the other flags) and 7 only for non-diffuse faces: the
+//!   reflectance for the visible one and for mirrors along a traced chain, α for the visible
+//!   one ([`super::mirror_trace`]).
 //! * Per-corner attributes (light fields with shading normals, vertex colours or a texture read
 //!   with `TEXCOORD_1`; [`super::attributes`]): a storage buffer of two `vec4` per triangle
 //!   corner, `[n.xyz, t.x]`, `[c.rgb, t.y]` (shading normal, zero on flat triangles; vertex
@@ -76,6 +78,8 @@ pub const FLAG_EMISSIVE: u32 = 0x400;
 pub const FLAG_EMISSIVE_TEXTURE: u32 = 0x800;
 /// The per-corner attribute flags of a face, above these (`super::attributes`).
 pub use super::attributes::{FLAG_BASE_UV1, FLAG_COLORS, FLAG_EMISSIVE_UV1, FLAG_SMOOTH};
+/// The face is a thin glass pane (its material's pane weight and IOR in texel 6).
+pub const FLAG_PANE: u32 = 0x10000;
 
 /// GPU copies of a [`LightField`].
 pub struct GpuLightField {
@@ -89,6 +93,13 @@ pub struct GpuLightField {
     /// `TEXCOORD_0` per triangle corner (vec2, three per triangle, in the order of
     /// [`triangles`](Self::triangles)).
     pub uvs: wgpu::Buffer,
+    /// The alpha masks of the light field's triangles in its own order
+    /// (`LightField::alpha_masks`, `AlphaMasks::words`): passes 3, 4 and 5 discard the
+    /// fragments where they leave no surface, each uploaded triangle naming its index in the
+    /// light field in `BakeTriangle::_pad0`; pass 5's mirror BVH looks them up by `prim`.
+    pub alpha_masks: wgpu::Buffer,
+    /// Whether a triangle has a mask (else the passes' mask code is not compiled in).
+    pub has_masks: bool,
     /// Per-corner attributes ([`corner_attributes`]; a dummy without), and whether there are.
     pub attributes: wgpu::Buffer,
     pub has_attributes: bool,
@@ -246,6 +257,9 @@ pub fn face_flags(m: &SurfaceMaterial) -> u32 {
             flags |= FLAG_EMISSIVE_TEXTURE;
         }
     }
+    if m.pane > 0.0 {
+        flags |= FLAG_PANE;
+    }
     flags
 }
 
@@ -290,7 +304,12 @@ pub fn face_record(
         b(f.v, f.height),
         b(rho.into(), f.texel_base),
         b(m.emission, 0),
-        [m.base_color_texture, m.emissive_texture, 0, 0],
+        [
+            m.base_color_texture,
+            m.emissive_texture,
+            m.ior.to_bits(),
+            m.pane.to_bits(),
+        ],
         b(
             specular_reflectance(f, m).into(),
             m.specular_alpha.to_bits(),
@@ -365,8 +384,9 @@ impl GpuLightField {
                 .position(|&i| stencil(&lf.triangles[i]) >= s)
                 .unwrap_or(order.len()) as u32
         });
-        // Each uploaded triangle names its index in the light field (its per-corner
-        // attributes') in its first padding word.
+        // Each uploaded triangle names its index in the light field in its first padding word
+        // (`_pad0`, written 0 in files, unused by the bake): its per-corner attributes and the
+        // alpha masks are in that order.
         let tris: Vec<BakeTriangle> = order
             .iter()
             .map(|&i| BakeTriangle {
@@ -374,6 +394,12 @@ impl GpuLightField {
                 ..lf.triangles[i]
             })
             .collect();
+        let masks = lf.alpha_masks();
+        let has_masks = !masks.is_empty();
+        let alpha_masks = buffer(
+            "Renderer::alpha_masks",
+            bytemuck::cast_slice(&masks.words()),
+        )?;
         let corner_uvs: Vec<[[f32; 2]; 3]> = order.iter().map(|&i| sh.uvs[i]).collect();
         let triangles = buffer(
             "Renderer::triangles",
@@ -497,6 +523,8 @@ impl GpuLightField {
             stencil_starts,
             face_count: lf.faces.len() as u32,
             uvs,
+            alpha_masks,
+            has_masks,
             attributes,
             has_attributes,
             faces_view,

@@ -56,6 +56,8 @@ fn every_registered_shader_resolves_and_validates() {
             "common/rt_scene.wgsl",
             "common/bvh.wgsl",
             "common/rays.wgsl",
+            "common/alpha_mask.wgsl",
+            "common/texture.wgsl",
             "common/random.wgsl",
             "common/hash.wgsl",
             "common/sampling.wgsl",

@@ -98,7 +98,8 @@ pub fn bin_triangles(proj: &[[Vec3; 3]], grid: &PsfGrid) -> Bins {
     Bins { start, tris }
 }
 
-/// Steps 1–2: bin triangles into tiles and build the exact per-ray depth lists.
+/// Steps 1–2: bin triangles into tiles and build the exact per-ray depth lists. A crossing
+/// where a triangle's alpha mask leaves no surface ([`AlphaMasks::cuts`](crate::lightfield::AlphaMasks::cuts)) is not listed.
 pub fn build_cell_lists(scene: &BakeScene, grid: &PsfGrid, frame: &PsfFrame) -> CellLists {
     let n = grid.n as usize;
     let tiles = grid.tiles_per_side() as usize;
@@ -117,7 +118,11 @@ pub fn build_cell_lists(scene: &BakeScene, grid: &PsfGrid, frame: &PsfFrame) -> 
             hits.clear();
             let tile = (j / m) * tiles + i / m;
             for &ti in &bins.tris[bins.start[tile] as usize..bins.start[tile + 1] as usize] {
-                if let Some(depth) = ray_hit(&proj[ti as usize], p) {
+                if let Some((depth, w)) = ray_crossing(&proj[ti as usize], p) {
+                    // No surface where the triangle's alpha mask cuts it: the ray passes.
+                    if scene.masks.cuts(ti, w) {
+                        continue;
+                    }
                     hits.push((depth, scene.triangles[ti as usize].face));
                 }
             }
@@ -144,6 +149,12 @@ pub fn build_cell_lists(scene: &BakeScene, grid: &PsfGrid, frame: &PsfFrame) -> 
 /// Depth at which the ray through `p` (PSF plane) crosses triangle `q` (PSF coords), if it does.
 /// Edges are inclusive; both windings accepted.
 pub fn ray_hit(q: &[Vec3; 3], p: Vec2) -> Option<f32> {
+    ray_crossing(q, p).map(|c| c.0)
+}
+
+/// [`ray_hit`] with the crossing's barycentric weights (of corners 0, 1, 2): the weights of
+/// the projected triangle, which a parallel projection keeps.
+pub fn ray_crossing(q: &[Vec3; 3], p: Vec2) -> Option<(f32, [f32; 3])> {
     let a = q[0].truncate();
     let b = q[1].truncate();
     let c = q[2].truncate();
@@ -157,5 +168,5 @@ pub fn ray_hit(q: &[Vec3; 3], p: Vec2) -> Option<f32> {
     if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
         return None;
     }
-    Some(w0 * q[0].z + w1 * q[1].z + w2 * q[2].z)
+    Some((w0 * q[0].z + w1 * q[1].z + w2 * q[2].z, [w0, w1, w2]))
 }

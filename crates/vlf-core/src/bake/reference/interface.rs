@@ -23,8 +23,40 @@ pub struct Interface {
     pub last: bool,
 }
 
+/// The energy a direction's light spends in panes (issue 25), for the bookkeeping: summed
+/// over the direction's rays like the specular escape.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PaneEnergy {
+    /// What the panes' tints absorbed of the light they passed (`weight × T − tint × T`).
+    pub absorbed: f64,
+    /// What left the scene through a pane at a ray's open end.
+    pub escaped: f64,
+    /// Sunlight that reached a crossing through panes: the texels there count it as injected
+    /// ([`super::energy`]), but it was injected already where it entered the first pane.
+    pub sun_through: f64,
+}
+
+impl PaneEnergy {
+    /// Adds the panes' terms to an iteration's: their absorption, their escapes, and the
+    /// sunlight counted twice as injected taken back (shared by the CPU and GPU propagators).
+    pub fn apply(&self, e: &mut super::IterationEnergy) {
+        e.absorbed += self.absorbed;
+        e.escaped += self.escaped;
+        e.injected -= self.sun_through;
+    }
+}
+
 /// Step 3: arriving radiance at every crossing. Also returns the specular power that leaves
-/// through open ends of rays (escapes), for the energy bookkeeping.
+/// through open ends of rays (escapes), for the energy bookkeeping, and what panes did.
+///
+/// Panes (faces with a [`PaneFace`](crate::bake::prep::PaneFace)) pass light along the ray: the
+/// radiance arriving at a crossing from below is what leaves the crossing below it upward
+/// (its texel and tiles) plus that crossing's transmittance `tint × T(θ)` × what arrived
+/// there from below — the sky (`sky`, the first iteration) or a sun entering at the ray's
+/// open end included; the same from above. So a floor behind a window receives the sky and
+/// the suns through the glass, and light travels through any number of panes in one
+/// iteration. Along a sun's direction only the sun travels (surfaces' light is never read
+/// there): `from_below` is then the sun's irradiance that reached the crossing through panes.
 pub fn interface(
     scene: &BakeScene,
     grid: &PsfGrid,
@@ -32,13 +64,23 @@ pub fn interface(
     lists: &CellLists,
     unshot: &[[f32; 4]],
     spec: Option<&Specular>,
-) -> (Vec<Interface>, f64) {
+    sky: Vec3,
+) -> (Vec<Interface>, f64, PaneEnergy) {
     let frame = &dir.frame;
     let n = grid.n as usize;
     let w = frame.w;
     let mut out = vec![Interface::default(); lists.entries.len()];
     let cell_power = f64::from(grid.cell_size() * grid.cell_size() * dir.weight);
+    let sun_power = f64::from(grid.cell_size() * grid.cell_size());
     let mut escaped = 0f64;
+    let mut pane = PaneEnergy::default();
+    let has_panes = scene.panes.iter().any(|p| p.weight > 0.0);
+    let is_sun = dir.sun.is_some();
+    // What enters at a ray's open end travelling +w and −w.
+    let (src_up, src_down) = match dir.sun {
+        Some(e) => (e, Vec3::ZERO),
+        None => (sky, sky),
+    };
     // Unshot radiance leaving crossing `e` of `cell` in direction `toward`·w.
     let outgoing = |cell: (u32, u32), e: (f32, u32), toward: f32| -> (Vec3, Vec3) {
         let f = &scene.faces[e.1 as usize];
@@ -54,34 +96,77 @@ pub fn interface(
         };
         (diffuse, specular)
     };
+    // Surfaces send nothing along a sun's direction (only the sun is followed there).
+    let leaving = |cell: (u32, u32), e: (f32, u32), toward: f32| -> Vec3 {
+        if is_sun {
+            Vec3::ZERO
+        } else {
+            let (d, s) = outgoing(cell, e, toward);
+            d + s
+        }
+    };
+    // The pane of the crossing of face `f`: (tint × T, weight × T) along this direction.
+    let pass = |f: u32| -> (Vec3, f32) {
+        let p = &scene.panes[f as usize];
+        let c = scene.faces[f as usize].normal().dot(w).abs();
+        (p.transmittance(c), p.untinted(c))
+    };
     for c in 0..n * n {
         let cell = ((c % n) as u32, (c / n) as u32);
         let s = lists.start[c] as usize;
         let list = lists.cell(c);
-        for k in 0..list.len() {
+        let len = list.len();
+        // Upward: what arrives at crossing k from below.
+        let mut carry = Vec3::ZERO;
+        for k in 0..len {
             let first = k == 0;
-            let last = k + 1 == list.len();
-            let sum = |(d, s): (Vec3, Vec3)| d + s;
-            out[s + k] = Interface {
-                from_below: if first {
-                    Vec3::ZERO
-                } else {
-                    sum(outgoing(cell, list[k - 1], 1.0))
-                },
-                from_above: if last {
-                    Vec3::ZERO
-                } else {
-                    sum(outgoing(cell, list[k + 1], -1.0))
-                },
-                first,
-                last,
+            let below = if first {
+                Vec3::ZERO
+            } else {
+                leaving(cell, list[k - 1], 1.0) + carry
             };
+            out[s + k].from_below = below;
+            out[s + k].first = first;
+            out[s + k].last = k + 1 == len;
+            if has_panes {
+                if is_sun && !first {
+                    pane.sun_through += sum3(carry) * sun_power;
+                }
+                let arriving = below + if first { src_up } else { Vec3::ZERO };
+                let (t, plain) = pass(list[k].1);
+                carry = arriving * t;
+                let power = if is_sun { sun_power } else { cell_power };
+                pane.absorbed += (sum3(arriving) * f64::from(plain) - sum3(carry)) * power;
+                if k + 1 == len {
+                    pane.escaped += sum3(carry) * power;
+                }
+            }
+        }
+        // Downward: what arrives at crossing k from above.
+        let mut carry = Vec3::ZERO;
+        for k in (0..len).rev() {
+            let last = k + 1 == len;
+            let above = if last {
+                Vec3::ZERO
+            } else {
+                leaving(cell, list[k + 1], -1.0) + carry
+            };
+            out[s + k].from_above = above;
+            if has_panes && !is_sun {
+                let arriving = above + if last { src_down } else { Vec3::ZERO };
+                let (t, plain) = pass(list[k].1);
+                carry = arriving * t;
+                pane.absorbed += (sum3(arriving) * f64::from(plain) - sum3(carry)) * cell_power;
+                if k == 0 {
+                    pane.escaped += sum3(carry) * cell_power;
+                }
+            }
+        }
+        for k in 0..len {
             // Specular light leaving through an open end escapes (diffuse escapes are counted
             // per texel from the open fractions).
-            if spec.is_some()
-                && dir.sun.is_none()
-                && scene.faces[list[k].1 as usize].kind != FACE_DIFFUSE
-            {
+            let (first, last) = (k == 0, k + 1 == len);
+            if spec.is_some() && !is_sun && scene.faces[list[k].1 as usize].kind != FACE_DIFFUSE {
                 if last {
                     escaped += sum3(outgoing(cell, list[k], 1.0).1) * cell_power;
                 }
@@ -91,5 +176,5 @@ pub fn interface(
             }
         }
     }
-    (out, escaped)
+    (out, escaped, pane)
 }

@@ -43,7 +43,7 @@ pub use energy::{
     take_tile_loss, tile_power,
 };
 pub use gather::{FALLBACK_RADIUS, TexelSample, sample_texel};
-pub use interface::{Interface, interface};
+pub use interface::{Interface, PaneEnergy, interface};
 pub use lobe::{Adjacency, LobeColumn, Normalisation, face_lobe, face_lobe_support};
 pub use reflect::{nearest_crossing, reflect};
 pub use shooting::{Shooting, accelerates};
@@ -94,6 +94,8 @@ pub struct DirectionGather {
     tiles: Vec<(u32, Vec4)>,
     /// Specular power escaping in this direction.
     pub escaped: f64,
+    /// What panes did to this direction's light.
+    pub pane: PaneEnergy,
 }
 
 /// Steps 1–4 for one direction and, with non-diffuse faces (`spec`: the sender state and this
@@ -109,7 +111,8 @@ pub fn gather_direction(
     sky: Vec3,
 ) -> DirectionGather {
     let lists = build_cell_lists(scene, grid, &dir.frame);
-    let (iface, escaped) = interface(scene, grid, dir, &lists, unshot, spec.map(|s| s.0));
+    let (iface, escaped, pane) =
+        interface(scene, grid, dir, &lists, unshot, spec.map(|s| s.0), sky);
     let mut tiles = Vec::new();
     if let Some((sp, jobs)) = spec {
         reflect(
@@ -134,6 +137,7 @@ pub fn gather_direction(
         samples,
         tiles,
         escaped,
+        pane,
     }
 }
 
@@ -160,8 +164,11 @@ impl DirectionGather {
                 match dir.sun {
                     // A sun's light travels +w only: it reaches the side facing −w, through the
                     // first crossing of its ray (`open` is then the "first" fraction).
+                    // Through the first crossing of its ray, or through panes (`arriving`
+                    // along a sun's direction is the sun that passed them).
                     Some(e_sun) if side == s.upstream_side => {
-                        a.open += (e_sun * s.cos * s.open[side]).extend(0.0)
+                        a.open +=
+                            (e_sun * (s.cos * s.open[side]) + s.arriving[side] * s.cos).extend(0.0)
                     }
                     Some(_) => {}
                     None => {
@@ -232,6 +239,7 @@ pub fn propagate_with(
         let mut acc = vec![TexelAccum::default(); n_tex];
         next_tiles.fill([0.0; 4]);
         let mut spec_escaped = 0f64;
+        let mut pane = PaneEnergy::default();
         let unshot = shooting.prepare();
         // Suns shine in the first iteration only.
         let active = if first { dirs.len() } else { quadrature };
@@ -255,6 +263,9 @@ pub fn propagate_with(
             |di, g| {
                 g.add_to(scene, &dirs[di], &tex_face, &mut acc, &mut next_tiles);
                 spec_escaped += g.escaped;
+                pane.absorbed += g.pane.absorbed;
+                pane.escaped += g.pane.escaped;
+                pane.sun_through += g.pane.sun_through;
                 progress(Progress {
                     iteration: it,
                     max_iterations: max_iter,
@@ -274,6 +285,7 @@ pub fn propagate_with(
             &mut next,
             &mut irradiance,
         );
+        pane.apply(&mut e);
         if let Some(s) = &spec {
             e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
             e.absorbed += take_tile_loss(&s.index, &mut next_tiles, set, &grid);

@@ -62,7 +62,8 @@ pub fn reflect(
                 };
                 let cr = &iface[k];
                 let arriving = match (dir.sun, job.incoming_sense) {
-                    (Some(irr), _) => irr * f32::from(u8::from(cr.first)),
+                    // A sun through its ray's open end or through panes (`from_below`).
+                    (Some(irr), _) => irr * f32::from(u8::from(cr.first)) + cr.from_below,
                     (None, 0) => cr.from_below + sky * f32::from(u8::from(cr.first)),
                     (None, _) => cr.from_above + sky * f32::from(u8::from(cr.last)),
                 };

@@ -398,16 +398,23 @@ fn visit_reflect_jobs(
                 splats.push((di, sense, lk.vertices, lk.weights));
             }
         }
+        let pane_ior = match model {
+            SpecularModel::Pane { ior } => Some(ior),
+            _ => None,
+        };
         for (di, sense, verts, weights) in splats {
             let d = &dirs[di];
             let cos_t = n.dot(d.frame.w).abs();
-            // A lobe narrower than the spacing keeps its directional albedo.
-            let (keep, loss) = match albedo {
-                Some(a) => {
+            // A lobe narrower than the spacing keeps its directional albedo; a pane reflects
+            // R(θ) of what arrives (the rest passes through it in the interface step, so
+            // nothing is lost here).
+            let (keep, loss) = match (pane_ior, albedo) {
+                (Some(ior), _) => (crate::scene::pane_reflectance(cos_t, ior), 0.0),
+                (None, Some(a)) => {
                     let a = a.at(cos_t);
                     (a, (1.0 - a) / a)
                 }
-                None => (1.0, 0.0),
+                (None, None) => (1.0, 0.0),
             };
             // A sun is a single direction outside the quadrature: its three destinations are
             // normalised to conserve its power (Σ_k L_k·ΔΩ_k·cos_k = ρ·E·cos_t) rather than by
@@ -435,7 +442,7 @@ fn visit_reflect_jobs(
                     }
                     _ => continue,
                 };
-                let weight = if albedo.is_some() {
+                let weight = if albedo.is_some() || pane_ior.is_some() {
                     weight * keep
                 } else {
                     weight
@@ -495,7 +502,10 @@ impl SpecularSetup {
             .iter()
             .zip(reach_factors(scene, grid, dirs, &index))
         {
-            unresolved[face as usize] = 1.0 - r;
+            // A pane's light that no ray carries passes by it anyway: nothing to re-emit.
+            if scene.panes[face as usize].weight <= 0.0 {
+                unresolved[face as usize] = 1.0 - r;
+            }
         }
         let jobs = reflect_jobs(scene, set, dirs, &index);
         Some(Self {

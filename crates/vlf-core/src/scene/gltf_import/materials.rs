@@ -9,7 +9,9 @@ use gltf::json::{self, Value, validation::Checked};
 use super::{Importer, element, short};
 use crate::scene::texture::{self, FilterMode, Texture, WrapMode};
 use crate::scene::uri;
-use crate::scene::{Material, MaterialKind, SceneError, TexRef};
+use crate::scene::{
+    AlphaMode, DEFAULT_IOR, Material, MaterialKind, SceneError, TexRef, Transparency,
+};
 
 /// Decoded textures larger than this many texels are rejected (16 bytes each).
 const MAX_TEXELS: u64 = 1 << 25;
@@ -60,13 +62,8 @@ impl Importer<'_> {
         // (mirror, directional tiles, or diffuse) depends on its direction set (`bake::glossy`).
         let kind = MaterialKind::from_metallic(metallic);
 
-        if let Checked::Valid(mode) = m.alpha_mode
-            && mode != json::material::AlphaMode::Opaque
-        {
-            self.warn(format!(
-                "{el}: alphaMode {mode:?} is ignored (treated as opaque)"
-            ));
-        }
+        let mut transparency = self.transparency(&m, &el);
+        self.read_transmission(i, &el, roughness, &mut transparency);
         self.warn_material_extensions(i, &el);
 
         let base_color_texture = match &pbr.base_color_texture {
@@ -94,7 +91,86 @@ impl Importer<'_> {
             kind,
             metallic,
             roughness,
+            transparency,
         })
+    }
+
+    /// `alphaMode`, `alphaCutoff` and baseColorFactor.a (`Transparency`).
+    fn transparency(&mut self, m: &json::Material, el: &str) -> Transparency {
+        let mode = match m.alpha_mode {
+            Checked::Valid(json::material::AlphaMode::Mask) => AlphaMode::Mask,
+            Checked::Valid(json::material::AlphaMode::Blend) => AlphaMode::Blend,
+            Checked::Valid(json::material::AlphaMode::Opaque) => AlphaMode::Opaque,
+            Checked::Invalid => {
+                self.warn(format!("{el}: unknown alphaMode; treated as OPAQUE"));
+                AlphaMode::Opaque
+            }
+        };
+        let mut t = Transparency {
+            alpha_mode: mode,
+            ..Transparency::default()
+        };
+        if mode == AlphaMode::Opaque {
+            return t;
+        }
+        let a = m.pbr_metallic_roughness.base_color_factor.0[3];
+        t.alpha = self.clamp_factor(el, "baseColorFactor alpha", a, 0.0, 1.0);
+        if let Some(c) = m.alpha_cutoff {
+            t.alpha_cutoff = self.clamp_factor(el, "alphaCutoff", c.0, 0.0, f32::MAX);
+        }
+        t
+    }
+
+    /// `KHR_materials_transmission` (a thin pane, shared conventions) and `KHR_materials_ior`,
+    /// from the raw JSON; what of them is not modelled is a warning.
+    fn read_transmission(&mut self, i: usize, el: &str, roughness: f32, t: &mut Transparency) {
+        let Some(exts) = self
+            .raw
+            .get("materials")
+            .and_then(|m| m.get(i))
+            .and_then(|m| m.get("extensions"))
+            .cloned()
+        else {
+            return;
+        };
+        if let Some(tr) = exts.get("KHR_materials_transmission") {
+            let f = tr
+                .get("transmissionFactor")
+                .and_then(Value::as_f64)
+                .unwrap_or(0.0) as f32;
+            t.transmission = self.clamp_factor(el, "transmissionFactor", f, 0.0, 1.0);
+            if tr.get("transmissionTexture").is_some() {
+                self.warn(format!(
+                    "{el}: transmissionTexture is ignored (transmissionFactor {} everywhere)",
+                    t.transmission
+                ));
+            }
+            if t.transmission > 0.0 && roughness > crate::scene::MIRROR_MAX_ROUGHNESS {
+                self.warn(format!(
+                    "{el}: rough transmission (roughness {roughness}) is modelled as a smooth thin pane"
+                ));
+            }
+            if t.transmission > 0.0 && exts.get("KHR_materials_volume").is_some() {
+                self.warn(format!(
+                    "{el}: KHR_materials_volume is not modelled: a thin pane (no refraction, no absorption in the volume)"
+                ));
+            }
+        }
+        if let Some(ior) = exts.get("KHR_materials_ior") {
+            let v = ior
+                .get("ior")
+                .and_then(Value::as_f64)
+                .unwrap_or(f64::from(DEFAULT_IOR)) as f32;
+            // The extension allows 0 (meaning an infinite index) and values ≥ 1.
+            t.ior = if v.is_finite() && v >= 1.0 {
+                v
+            } else {
+                self.warn(format!(
+                    "{el}: ior {v} is not modelled (below 1 or infinite); using {DEFAULT_IOR}"
+                ));
+                DEFAULT_IOR
+            };
+        }
     }
 
     /// Warnings for material extensions that change nothing here, and for
@@ -104,8 +180,16 @@ impl Importer<'_> {
             return;
         };
         if let Some(exts) = raw.get("extensions").and_then(Value::as_object) {
+            // Transmission, its IOR and (for panes) its volume are read or warned about in
+            // `read_transmission`.
+            let modelled = [
+                "KHR_materials_emissive_strength",
+                "KHR_materials_transmission",
+                "KHR_materials_ior",
+            ];
+            let pane = exts.contains_key("KHR_materials_transmission");
             for name in exts.keys() {
-                if name != "KHR_materials_emissive_strength" {
+                if !(modelled.contains(&name.as_str()) || pane && name == "KHR_materials_volume") {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }
@@ -302,6 +386,7 @@ impl Importer<'_> {
             kind: MaterialKind::Mirror,
             metallic: 1.0,
             roughness: 1.0,
+            transparency: Transparency::default(),
         });
         self.default_material = Some(i);
         i

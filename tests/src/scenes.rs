@@ -1,0 +1,172 @@
+//! Test scenes shared by vlf-core's integration tests (included with `#[path]`) and the GPU
+//! suite (`vlf_tests::scenes`): surfaces that let light through.
+
+use glam::{Vec2, Vec3, Vec4};
+use vlf_core::bake::BakeScene;
+use vlf_core::scene::{
+    AlphaMode, FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture,
+    Transparency, WrapMode,
+};
+
+/// Stripes across the screen: texture periods over its width (each period one opaque and one
+/// transparent texel, NEAREST). The stripes are 3/93.4 = 0.032 units wide, 0.015 in VLF units:
+/// under half the ray spacing of the bakes below.
+pub const PERIODS: f32 = 46.7;
+
+/// An emitter (radiance 1, black) at y = 1 facing down over a grey receiver at y = 0 facing
+/// up, both 2 × 2; with `screen`, a black 3 × 3 screen at y = 0.5 between them whose alpha
+/// mask (a 2 × 1 NEAREST texture, alpha 1 and 0, repeated) removes half its area in stripes
+/// along z.
+pub fn striped_screen(screen: bool) -> Scene {
+    let mut b = SceneBuilder::new();
+    let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::ONE);
+    let grey = b.diffuse("receiver", Vec3::splat(0.5), Vec3::ZERO);
+    let square = |y: f32, r: f32| {
+        [
+            Vec3::new(-r, y, -r),
+            Vec3::new(-r, y, r),
+            Vec3::new(r, y, r),
+            Vec3::new(r, y, -r),
+        ]
+    };
+    let mut down = square(1.0, 1.0);
+    down.reverse();
+    b.quad(down, lamp);
+    b.quad(square(0.0, 1.0), grey);
+    if screen {
+        let tex = b.texture(Texture {
+            name: Some("stripes".into()),
+            width: 2,
+            height: 1,
+            pixels: vec![Vec4::new(0.0, 0.0, 0.0, 1.0), Vec4::ZERO],
+            has_alpha: true,
+            wrap_s: WrapMode::Repeat,
+            wrap_t: WrapMode::Repeat,
+            filter: FilterMode::Nearest,
+            gltf_texture: 0,
+        });
+        let m = b.material(Material {
+            name: "screen".into(),
+            base_color: Vec3::ONE,
+            base_color_texture: Some(TexRef {
+                index: tex,
+                texcoord: 0,
+            }),
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            double_sided: true,
+            kind: MaterialKind::Diffuse,
+            metallic: 0.0,
+            roughness: 1.0,
+            transparency: Transparency {
+                alpha_mode: AlphaMode::Mask,
+                alpha_cutoff: 0.5,
+                alpha: 1.0,
+                ..Transparency::default()
+            },
+        });
+        let p = PERIODS;
+        b.uv_quad(
+            square(0.5, 1.5),
+            [
+                Vec2::new(0.0, 0.0),
+                Vec2::new(0.0, 1.0),
+                Vec2::new(p, 1.0),
+                Vec2::new(p, 0.0),
+            ],
+            m,
+        );
+    }
+    b.build("striped screen")
+}
+
+/// The receiver's face (normal +y at y = 0).
+pub fn receiver(scene: &Scene) -> usize {
+    (0..scene.faces.len())
+        .find(|&f| scene.faces[f].normal.y > 0.99 && scene.face_triangles(f)[0].p[0].y == 0.0)
+        .expect("the receiver")
+}
+
+/// Area-weighted mean irradiance of the texels of `face`'s front side whose centres lie within
+/// `r` (world units) of the y axis.
+pub fn central_mean(scene: &Scene, prep: &BakeScene, irr: &[[f32; 4]], face: usize, r: f32) -> f32 {
+    let f = &prep.faces[face];
+    let (mut sum, mut area) = (0f64, 0f64);
+    for t in f.texel_base..f.texel_base + f.texels_per_side() {
+        let t = t as usize;
+        let a = prep.texel_area[t];
+        let c = scene
+            .to_vlf
+            .inverse(Vec4::from(prep.texel_center[t]).truncate());
+        if a <= 0.0 || c.x.abs() > r || c.z.abs() > r {
+            continue;
+        }
+        sum += f64::from(Vec4::from(irr[t]).truncate().y * a);
+        area += f64::from(a);
+    }
+    (sum / area) as f32
+}
+
+/// A black 1 × 1 receiver at y = 0 facing up under a 4 × 4 horizontal glass pane at y =
+/// `height` (transmission 1, white, roughness 0: a pure thin pane of IOR 1.5), or without
+/// the pane, over a black 4 × 4 ground at y = −0.01 (so that what the pane's underside
+/// reflects onto the receiver is black, not the sky below).
+pub fn pane_over_floor(pane: bool, height: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let floor = b.diffuse("receiver", Vec3::ZERO, Vec3::ZERO);
+    let ground = b.diffuse("ground", Vec3::ZERO, Vec3::ZERO);
+    let square = |y: f32, r: f32| {
+        [
+            Vec3::new(-r, y, -r),
+            Vec3::new(-r, y, r),
+            Vec3::new(r, y, r),
+            Vec3::new(r, y, -r),
+        ]
+    };
+    b.quad(square(0.0, 0.5), floor);
+    b.quad(square(-0.01, 2.0), ground);
+    if pane {
+        let glass = b.material(Material {
+            name: "glass".into(),
+            base_color: Vec3::ONE,
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            double_sided: true,
+            kind: MaterialKind::Diffuse,
+            metallic: 0.0,
+            roughness: 0.0,
+            transparency: Transparency {
+                transmission: 1.0,
+                ..Transparency::default()
+            },
+        });
+        b.quad(square(height, 2.0), glass);
+    }
+    b.build("pane over floor")
+}
+
+/// The irradiance at the centre of `pane_over_floor(true, height)`'s receiver under a sky of
+/// radiance 1: ∫ T(θ) cos θ dω over the directions through the pane, ∫ cos θ dω over the
+/// others (a 2,000 × 2,000 midpoint quadrature in (cos θ, φ)). What the pane reflects onto
+/// the receiver is the black ground's (for `height` 0.02, all directions but the last 1.4°
+/// above the horizon, which carry 0.06 % of the sky's light).
+pub fn pane_sky_irradiance(height: f32) -> f64 {
+    let n = 2000;
+    let mut e = 0f64;
+    for i in 0..n {
+        let mu = (i as f64 + 0.5) / n as f64;
+        let sin = (1.0 - mu * mu).sqrt();
+        let t = 1.0 - f64::from(vlf_core::scene::pane_reflectance(mu as f32, 1.5));
+        for j in 0..n {
+            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / n as f64;
+            // Where the direction meets the pane's plane.
+            let r = f64::from(height) * sin / mu;
+            let (x, z) = (r * phi.cos(), r * phi.sin());
+            let through = x.abs() <= 2.0 && z.abs() <= 2.0;
+            // dω = dμ dφ; integrand cos θ = μ.
+            e += mu * if through { t } else { 1.0 };
+        }
+    }
+    e * std::f64::consts::TAU / (n as f64 * n as f64)
+}
