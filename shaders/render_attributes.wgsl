@@ -37,6 +37,11 @@ struct AttributesTargets {
 
 @vertex
 fn vs_main(@builtin(vertex_index) vi: u32) -> AttributesOut {
+    return attributes_out(vi);
+}
+
+// What both vertex stages output for vertex `vi` (an entry point cannot be called).
+fn attributes_out(vi: u32) -> AttributesOut {
     let tri = triangles[vi / 3u];
     let p = corner_position(tri, vi % 3u);
     let k = CORNER_ENTRIES * (3u * tri._pad0 + vi % 3u);
@@ -65,7 +70,7 @@ struct MaskedAttributesOut {
 
 @vertex
 fn vs_masked(@builtin(vertex_index) vi: u32) -> MaskedAttributesOut {
-    let plain = vs_main(vi);
+    let plain = attributes_out(vi);
     var out: MaskedAttributesOut;
     out.clip = plain.clip;
     out.a = plain.a;
