@@ -160,8 +160,9 @@ fn gpu_path_tracer_passes_half_the_light() {
     assert!((ratio - 0.5).abs() < 0.01, "ratio {ratio}");
 }
 
-/// The GPU final gather through the screen: half the light (within 2 %), and the same texels
-/// as the CPU gather (same streams, same mask lookups; 1e-4 mean relative difference, the
+/// The GPU final gather through the screen: half the light (within 2 %; 256 light samples as
+/// the CPU test takes: at 64 the estimate's own noise, about 1 %, put it 2.3 % off), and the
+/// same texels as the CPU gather (same streams, same mask lookups; 1e-4 mean relative difference, the
 /// bound of `gather_gpu.rs`).
 #[test]
 fn gpu_final_gather_passes_half_the_light() {
@@ -169,7 +170,7 @@ fn gpu_final_gather_passes_half_the_light() {
     let gp = GatherParams {
         texel_scale: 2.0,
         indirect_texel_scale: 4.0,
-        light_samples: 64,
+        light_samples: 256,
         direct_rays: 16,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
