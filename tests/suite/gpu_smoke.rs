@@ -1,6 +1,6 @@
 //! First GPU test: a compute dispatch whose result is checked on the CPU.
 
-use vlf_gpu::passes::smoke::SmokePass;
+use vlf_gpu::smoke::SmokePass;
 use vlf_tests::{gpu, gpu_required};
 
 #[test]

@@ -8,6 +8,7 @@ mod ci;
 mod gpu_timing;
 mod lengths;
 mod modgraph;
+mod one_home;
 mod validate;
 
 use std::path::{Path, PathBuf};
@@ -31,7 +32,8 @@ tasks:
   assets        regenerate the Cornell box scenes under assets/
   check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
   validate-gltf FILE...  run Khronos glTF-Validator on the given files
-  check-modules  fail on an import cycle between vlf-core's modules; print their layers
+  check-modules  fail on an import cycle between vlf-core's modules (print their layers) or on
+                 wgpu boilerplate outside vlf-gpu's wgpu_util.rs
   check-lengths  fail on a non-test source file over 800 lines under crates/ and xtask/";
 
 fn repo_root() -> PathBuf {
@@ -63,7 +65,9 @@ fn main() -> Result<()> {
             validate::validate_gltf(&root, &files)?;
         }
         Some("check-modules") => {
-            print!("{}", modgraph::check(&root, Path::new(ci::LAYERED_CRATE))?)
+            print!("{}", modgraph::check(&root, Path::new(ci::LAYERED_CRATE))?);
+            let n = one_home::check(&root)?;
+            println!("vlf-gpu: wgpu boilerplate only in wgpu_util.rs ({n} files read)");
         }
         Some("check-lengths") => {
             let n = lengths::check(&root)?;

@@ -382,7 +382,7 @@ fn selftest(device: DeviceArg, json: bool) -> anyhow::Result<()> {
     } else {
         "gpu"
     };
-    let pass = vlf_gpu::passes::smoke::SmokePass::new(&ctx.device);
+    let pass = vlf_gpu::smoke::SmokePass::new(&ctx.device);
     let xs: Vec<f32> = (0..65_536).map(|i| i as f32 * 0.25).collect();
     let t = std::time::Instant::now();
     let ys = pass

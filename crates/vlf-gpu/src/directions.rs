@@ -15,10 +15,11 @@ use vlf_core::directions::{DirectionSet, Lookup};
 
 use crate::GpuContext;
 use crate::layout::DirTables;
-use crate::passes::dispatch_2d;
-use crate::raytrace::{storage_entry, uniform_entry};
 use crate::readback::{read_buffer, storage_buffer};
 use crate::shaders;
+use crate::wgpu_util::{
+    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, uniform_entry,
+};
 use wgpu::util::DeviceExt;
 
 /// The lookup tables of `set` as `shaders/common/directions.wgsl` binds them.
@@ -43,7 +44,10 @@ pub fn tables(set: &DirectionSet) -> DirTables {
 pub fn tables_layout(device: &wgpu::Device, label: &str) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
-        entries: &[uniform_entry::<DirTables>(0, false), storage_entry(1, true)],
+        entries: &[
+            uniform_entry::<DirTables>(0, wgpu::ShaderStages::COMPUTE, false),
+            compute_storage(1, true),
+        ],
     })
 }
 
@@ -119,27 +123,20 @@ impl DirectionLookup {
     pub fn new(device: &wgpu::Device) -> Self {
         let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("DirectionLookup::io_layout"),
-            entries: &[storage_entry(0, true), storage_entry(1, false)],
+            entries: &[compute_storage(0, true), compute_storage(1, false)],
         });
         let tables_layout = tables_layout(device, "DirectionLookup::tables_layout");
         let empty = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("DirectionLookup::empty_layout"),
             entries: &[],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("DirectionLookup::pipeline_layout"),
-            bind_group_layouts: &[Some(&io_layout), Some(&empty), Some(&tables_layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline_layout(
+            device,
+            "DirectionLookup::pipeline_layout",
+            &[Some(&io_layout), Some(&empty), Some(&tables_layout)],
+        );
         let module = shaders::DIRECTIONS_LOOKUP.module(device);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("DirectionLookup::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "DirectionLookup", &layout, &module, "main");
         Self {
             io_layout,
             empty_layout: empty,

@@ -17,11 +17,12 @@ pub mod device;
 pub mod directions;
 pub mod gather;
 pub mod layout;
-pub mod passes;
 pub mod radiosity;
 pub mod raytrace;
 pub mod readback;
 pub mod render;
 pub mod shaders;
+pub mod smoke;
+pub mod wgpu_util;
 
 pub use device::{DeviceError, DeviceOptions, GpuContext};

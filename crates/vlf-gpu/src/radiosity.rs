@@ -26,8 +26,10 @@ use wgpu::util::DeviceExt;
 
 use crate::GpuContext;
 use crate::layout::{PatchTerm, RadiosityGlobals};
-use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
+use crate::wgpu_util::{
+    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, uniform_entry,
+};
 
 /// Invocations per workgroup of `sweep` (`WG` in the WGSL).
 const WORKGROUP: u32 = 64;
@@ -60,59 +62,33 @@ pub struct RadiosityJacobi {
     pub reduce: wgpu::ComputePipeline,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 impl RadiosityJacobi {
     pub fn new(device: &wgpu::Device) -> Self {
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RadiosityJacobi::globals_layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(size_of::<RadiosityGlobals>() as u64),
-                },
-                count: None,
-            }],
+            entries: &[uniform_entry::<RadiosityGlobals>(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                false,
+            )],
         });
         let entries: Vec<_> = [true, true, true, true, true, false, false, false]
             .iter()
             .enumerate()
-            .map(|(i, &ro)| storage(i as u32, ro))
+            .map(|(i, &ro)| compute_storage(i as u32, ro))
             .collect();
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RadiosityJacobi::pass_layout"),
             entries: &entries,
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("RadiosityJacobi::pipeline_layout"),
-            bind_group_layouts: &[Some(&globals_layout), Some(&pass_layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline_layout(
+            device,
+            "RadiosityJacobi::pipeline_layout",
+            &[Some(&globals_layout), Some(&pass_layout)],
+        );
         let module = crate::shaders::RADIOSITY_JACOBI.module(device);
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("RadiosityJacobi::{entry}_pipeline")),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let pipeline =
+            |entry: &str| compute_pipeline(device, "RadiosityJacobi", &layout, &module, entry);
         Self {
             sweep: pipeline("sweep"),
             reduce: pipeline("reduce"),

@@ -1,9 +1,9 @@
 //! Bake pass `Cells` (`shaders/bake_cells.wgsl`): its pipeline, its group-1 layout and its bind
 //! group (one per one chunk of directions), built from the named bindings [`CellsBindings`].
 
-use super::common;
+use crate::wgpu_util::{self, bindings};
 
-common::bindings! {
+bindings! {
     /// Group 1 of `Cells`, in binding order.
     CellsBindings {
         triangles: READ,
@@ -23,8 +23,8 @@ pub struct CellsPass {
 
 impl CellsPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let layout = common::pass_layout(device, "Cells", CellsBindings::LAYOUT);
-        let pipeline = common::pipeline(
+        let layout = wgpu_util::pass_layout(device, "Cells", CellsBindings::LAYOUT);
+        let pipeline = wgpu_util::pass_pipeline(
             device,
             "Cells",
             globals,
@@ -35,6 +35,6 @@ impl CellsPass {
     }
 
     pub fn bind_group(&self, device: &wgpu::Device, b: &CellsBindings) -> wgpu::BindGroup {
-        common::bind_group(device, "Cells::bind_group", &self.layout, &b.buffers())
+        wgpu_util::buffer_bind_group(device, "Cells::bind_group", &self.layout, &b.buffers())
     }
 }

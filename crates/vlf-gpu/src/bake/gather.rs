@@ -1,9 +1,9 @@
 //! Bake pass `Gather` (`shaders/bake_gather.wgsl`): its pipeline, its group-1 layout and its bind
 //! group (one per the scene), built from the named bindings [`GatherBindings`].
 
-use super::common;
+use crate::wgpu_util::{self, bindings};
 
-common::bindings! {
+bindings! {
     /// Group 1 of `Gather`, in binding order.
     GatherBindings {
         faces: READ,
@@ -23,8 +23,8 @@ pub struct GatherPass {
 
 impl GatherPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let layout = common::pass_layout(device, "Gather", GatherBindings::LAYOUT);
-        let pipeline = common::pipeline(
+        let layout = wgpu_util::pass_layout(device, "Gather", GatherBindings::LAYOUT);
+        let pipeline = wgpu_util::pass_pipeline(
             device,
             "Gather",
             globals,
@@ -35,6 +35,6 @@ impl GatherPass {
     }
 
     pub fn bind_group(&self, device: &wgpu::Device, b: &GatherBindings) -> wgpu::BindGroup {
-        common::bind_group(device, "Gather::bind_group", &self.layout, &b.buffers())
+        wgpu_util::buffer_bind_group(device, "Gather::bind_group", &self.layout, &b.buffers())
     }
 }

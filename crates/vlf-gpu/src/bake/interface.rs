@@ -1,9 +1,9 @@
 //! Bake pass `Interface` (`shaders/bake_interface.wgsl`): its pipeline, its group-1 layout and its bind
 //! group (one per the scene), built from the named bindings [`InterfaceBindings`].
 
-use super::common;
+use crate::wgpu_util::{self, bindings};
 
-common::bindings! {
+bindings! {
     /// Group 1 of `Interface`, in binding order.
     InterfaceBindings {
         faces: READ,
@@ -26,8 +26,8 @@ pub struct InterfacePass {
 
 impl InterfacePass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let layout = common::pass_layout(device, "Interface", InterfaceBindings::LAYOUT);
-        let pipeline = common::pipeline(
+        let layout = wgpu_util::pass_layout(device, "Interface", InterfaceBindings::LAYOUT);
+        let pipeline = wgpu_util::pass_pipeline(
             device,
             "Interface",
             globals,
@@ -38,6 +38,6 @@ impl InterfacePass {
     }
 
     pub fn bind_group(&self, device: &wgpu::Device, b: &InterfaceBindings) -> wgpu::BindGroup {
-        common::bind_group(device, "Interface::bind_group", &self.layout, &b.buffers())
+        wgpu_util::buffer_bind_group(device, "Interface::bind_group", &self.layout, &b.buffers())
     }
 }

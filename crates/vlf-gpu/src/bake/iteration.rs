@@ -11,8 +11,8 @@ use super::resources::{Host, SceneResources};
 use super::{DIR_STRIDE, GpuBakeError, Progress};
 use crate::GpuContext;
 use crate::layout;
-use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
+use crate::wgpu_util::dispatch_2d;
 
 /// Directions encoded per submission (progress granularity).
 const DIRS_PER_SUBMIT: usize = 32;

@@ -22,7 +22,6 @@
 
 mod cells;
 pub mod chunks;
-mod common;
 mod gather;
 mod interface;
 mod iteration;

@@ -28,16 +28,11 @@ impl BakePipelines {
     pub fn new(device: &wgpu::Device) -> BakePipelines {
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Bake::globals_layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: true,
-                    min_binding_size: wgpu::BufferSize::new(size_of::<BakeDirection>() as u64),
-                },
-                count: None,
-            }],
+            entries: &[crate::wgpu_util::uniform_entry::<BakeDirection>(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                true,
+            )],
         });
         let pipelines = BakePipelines {
             cells: cells::CellsPass::new(device, &globals_layout),

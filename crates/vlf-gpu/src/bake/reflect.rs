@@ -1,9 +1,9 @@
 //! Bake pass `Reflect` (`shaders/bake_reflect.wgsl`): its pipeline, its group-1 layout and its bind
 //! group (one per one chunk of directions), built from the named bindings [`ReflectBindings`].
 
-use super::common;
+use crate::wgpu_util::{self, bindings};
 
-common::bindings! {
+bindings! {
     /// Group 1 of `Reflect`, in binding order.
     ReflectBindings {
         faces: READ,
@@ -24,8 +24,8 @@ pub struct ReflectPass {
 
 impl ReflectPass {
     pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
-        let layout = common::pass_layout(device, "Reflect", ReflectBindings::LAYOUT);
-        let pipeline = common::pipeline(
+        let layout = wgpu_util::pass_layout(device, "Reflect", ReflectBindings::LAYOUT);
+        let pipeline = wgpu_util::pass_pipeline(
             device,
             "Reflect",
             globals,
@@ -36,6 +36,6 @@ impl ReflectPass {
     }
 
     pub fn bind_group(&self, device: &wgpu::Device, b: &ReflectBindings) -> wgpu::BindGroup {
-        common::bind_group(device, "Reflect::bind_group", &self.layout, &b.buffers())
+        wgpu_util::buffer_bind_group(device, "Reflect::bind_group", &self.layout, &b.buffers())
     }
 }

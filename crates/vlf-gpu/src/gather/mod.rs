@@ -53,11 +53,13 @@ use vlf_core::scene::Scene;
 use crate::device::GpuFault;
 use crate::directions::GpuDirections;
 use crate::layout::{DirTables, GatherGlobals, RtSceneInfo};
-use crate::passes::dispatch_2d;
-use crate::raytrace::{GpuScene, RaytraceError, storage_entry, uniform_entry};
+use crate::raytrace::{GpuScene, RaytraceError};
 use crate::readback::{read_buffer, storage_buffer};
 use crate::render::RenderError;
 use crate::render::upload::float_tile_textures;
+use crate::wgpu_util::{
+    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, texture_entry, uniform_entry,
+};
 use crate::{GpuContext, shaders};
 use grid::{contact_entries, grid_data};
 pub use plan::{GatherBuffer, GatherCounts, GatherPlan};
@@ -163,63 +165,45 @@ impl GatherPipelines {
         let grid_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("FinalGather::grid_layout"),
             entries: &[
-                uniform_entry::<GatherGlobals>(0, true),
-                storage_entry(1, true),
-                storage_entry(2, false),
-                storage_entry(3, false),
+                uniform_entry::<GatherGlobals>(0, wgpu::ShaderStages::COMPUTE, true),
+                compute_storage(1, true),
+                compute_storage(2, false),
+                compute_storage(3, false),
             ],
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("FinalGather::scene_layout"),
             entries: &[
-                storage_entry(0, true),
-                storage_entry(1, true),
-                storage_entry(2, true),
-                uniform_entry::<RtSceneInfo>(3, false),
-                storage_entry(6, true),
+                compute_storage(0, true),
+                compute_storage(1, true),
+                compute_storage(2, true),
+                uniform_entry::<RtSceneInfo>(3, wgpu::ShaderStages::COMPUTE, false),
+                compute_storage(6, true),
             ],
         });
         let vis = wgpu::ShaderStages::COMPUTE;
         let unfiltered = wgpu::TextureSampleType::Float { filterable: false };
-        let texture = |binding, sample_type| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: vis,
-            ty: wgpu::BindingType::Texture {
-                sample_type,
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
-            count: None,
-        };
+        let texture = |binding, sample_type| texture_entry(binding, vis, sample_type);
         let field_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("FinalGather::field_layout"),
             entries: &[
-                uniform_entry::<DirTables>(0, false),
-                storage_entry(1, true),
+                uniform_entry::<DirTables>(0, wgpu::ShaderStages::COMPUTE, false),
+                compute_storage(1, true),
                 texture(3, wgpu::TextureSampleType::Uint),
                 texture(4, unfiltered),
                 texture(5, unfiltered),
-                storage_entry(6, true),
+                compute_storage(6, true),
             ],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("FinalGather::pipeline_layout"),
-            bind_group_layouts: &[Some(&grid_layout), Some(&scene_layout), Some(&field_layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline_layout(
+            device,
+            "FinalGather::pipeline_layout",
+            &[Some(&grid_layout), Some(&scene_layout), Some(&field_layout)],
+        );
         let module = shaders::GATHER_TEXELS.module(device);
         let steps = Entry::ALL
             .iter()
-            .map(|e| {
-                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("FinalGather::{}_pipeline", e.name())),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some(e.name()),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-            })
+            .map(|e| compute_pipeline(device, "FinalGather", &layout, &module, e.name()))
             .collect();
         Self {
             steps,

@@ -9,12 +9,14 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{GpuScene, RaytraceError, storage_entry, uniform_entry};
+use super::{GpuScene, RaytraceError};
 use crate::GpuContext;
 use crate::layout::{RtBatch, RtQueue};
-use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
 use crate::shaders;
+use crate::wgpu_util::{
+    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, uniform_entry,
+};
 use vlf_core::pathtrace::{Hit, Ray};
 
 /// Invocations per workgroup of every ray-tracing kernel.
@@ -43,42 +45,37 @@ impl RayEngine {
     pub fn new(device: &wgpu::Device) -> Self {
         let batch_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RayEngine::batch_layout"),
-            entries: &[uniform_entry::<RtBatch>(0, true)],
+            entries: &[uniform_entry::<RtBatch>(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                true,
+            )],
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RayEngine::scene_layout"),
             entries: &[
-                storage_entry(0, true),
-                storage_entry(1, true),
-                storage_entry(6, true),
+                compute_storage(0, true),
+                compute_storage(1, true),
+                compute_storage(6, true),
             ],
         });
         let rays_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("RayEngine::rays_layout"),
             entries: &[
-                storage_entry(0, true),
-                storage_entry(1, false),
+                compute_storage(0, true),
+                compute_storage(1, false),
                 // Read only, but `RtQueue::count` is atomic (the path tracer appends to the same
                 // queues), and WGSL atomics need read_write storage.
-                storage_entry(2, false),
+                compute_storage(2, false),
             ],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("RayEngine::pipeline_layout"),
-            bind_group_layouts: &[Some(&batch_layout), Some(&scene_layout), Some(&rays_layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline_layout(
+            device,
+            "RayEngine::pipeline_layout",
+            &[Some(&batch_layout), Some(&scene_layout), Some(&rays_layout)],
+        );
         let module = shaders::RAYTRACE_ENGINE.module(device);
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("RayEngine::{entry}")),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let pipeline = |entry: &str| compute_pipeline(device, "RayEngine", &layout, &module, entry);
         Self {
             closest: pipeline("closest_hit"),
             any: pipeline("any_hit"),

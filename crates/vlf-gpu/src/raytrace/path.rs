@@ -20,12 +20,14 @@ use std::time::Instant;
 use wgpu::util::DeviceExt;
 
 use super::engine::{Query, RayEngine, WORKGROUP};
-use super::{GpuScene, RaytraceError, storage_entry, uniform_entry};
+use super::{GpuScene, RaytraceError};
 use crate::GpuContext;
 use crate::layout::{RtBatch, RtGlobals, RtPath, RtQueue, RtSceneInfo};
-use crate::passes::dispatch_2d;
 use crate::readback::read_buffer;
 use crate::shaders;
+use crate::wgpu_util::{
+    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, uniform_entry,
+};
 use vlf_core::image::Image;
 use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, RR_DEPTH, Ray, RenderSettings};
 
@@ -116,72 +118,65 @@ impl GpuPathTracer {
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("PathTracer::globals_layout"),
             entries: &[
-                uniform_entry::<RtGlobals>(0, false),
-                uniform_entry::<RtBatch>(1, true),
+                uniform_entry::<RtGlobals>(0, wgpu::ShaderStages::COMPUTE, false),
+                uniform_entry::<RtBatch>(1, wgpu::ShaderStages::COMPUTE, true),
             ],
         });
         let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("PathTracer::scene_layout"),
             entries: &[
-                storage_entry(0, true),
-                storage_entry(1, true),
-                storage_entry(2, true),
-                uniform_entry::<RtSceneInfo>(3, false),
-                storage_entry(6, true),
+                compute_storage(0, true),
+                compute_storage(1, true),
+                compute_storage(2, true),
+                uniform_entry::<RtSceneInfo>(3, wgpu::ShaderStages::COMPUTE, false),
+                compute_storage(6, true),
             ],
         });
         let wave_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("PathTracer::wave_layout"),
             entries: &[
-                storage_entry(0, false),
-                storage_entry(1, true),
-                storage_entry(2, false),
-                storage_entry(3, false),
-                storage_entry(4, false),
+                compute_storage(0, false),
+                compute_storage(1, true),
+                compute_storage(2, false),
+                compute_storage(3, false),
+                compute_storage(4, false),
             ],
         });
         let ctl_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("PathTracer::ctl_layout"),
             entries: &[
-                storage_entry(0, false),
-                storage_entry(1, false),
-                storage_entry(2, false),
+                compute_storage(0, false),
+                compute_storage(1, false),
+                compute_storage(2, false),
             ],
         });
-        let main_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("PathTracer::main_pipeline_layout"),
-            bind_group_layouts: &[
+        let main_layout = pipeline_layout(
+            device,
+            "PathTracer::main_pipeline_layout",
+            &[
                 Some(&globals_layout),
                 Some(&scene_layout),
                 Some(&wave_layout),
             ],
-            immediate_size: 0,
-        });
-        let ctl_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("PathTracer::ctl_pipeline_layout"),
-            bind_group_layouts: &[Some(&globals_layout), None, None, Some(&ctl_layout)],
-            immediate_size: 0,
-        });
-        let finish_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("PathTracer::finish_pipeline_layout"),
-            bind_group_layouts: &[
+        );
+        let ctl_pipeline_layout = pipeline_layout(
+            device,
+            "PathTracer::ctl_pipeline_layout",
+            &[Some(&globals_layout), None, None, Some(&ctl_layout)],
+        );
+        let finish_layout = pipeline_layout(
+            device,
+            "PathTracer::finish_pipeline_layout",
+            &[
                 Some(&globals_layout),
                 None,
                 Some(&wave_layout),
                 Some(&ctl_layout),
             ],
-            immediate_size: 0,
-        });
+        );
         let module = shaders::RAYTRACE_PATH.module(device);
         let pipeline = |entry: &str, layout: &wgpu::PipelineLayout| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("PathTracer::{entry}")),
-                layout: Some(layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, "PathTracer", layout, &module, entry)
         };
         Self {
             wave_begin: pipeline("wave_begin", &ctl_pipeline_layout),

@@ -34,11 +34,11 @@ impl DisplayPass {
                 texture_entry(4, vis, unfiltered),
             ],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("Display::pipeline_layout"),
-            bind_group_layouts: &[Some(globals_layout), Some(&pass_layout)],
-            immediate_size: 0,
-        });
+        let pipeline_layout = crate::wgpu_util::pipeline_layout(
+            device,
+            "Display::pipeline_layout",
+            &[Some(globals_layout), Some(&pass_layout)],
+        );
         Self {
             pass_layout,
             pipeline_layout,

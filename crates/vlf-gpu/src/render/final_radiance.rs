@@ -250,15 +250,15 @@ impl FinalRadiancePass {
             ],
         });
         let tiles_layout = tiles_layout(device, "FinalRadiance::tiles_layout", vis);
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("FinalRadiance::pipeline_layout"),
-            bind_group_layouts: &[
+        let pipeline_layout = crate::wgpu_util::pipeline_layout(
+            device,
+            "FinalRadiance::pipeline_layout",
+            &[
                 Some(globals_layout),
                 Some(&pass_layout),
                 Some(&tiles_layout),
             ],
-            immediate_size: 0,
-        });
+        );
         let module = shaders::RENDER_FINAL_RADIANCE.module(device);
         let variants = [false, true].map(|tracing| Variant {
             textures,

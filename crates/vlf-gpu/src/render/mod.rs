@@ -89,7 +89,8 @@ use timing::{FrameTimestamps, GpuTimer};
 use upload::GpuLightField;
 
 // Helpers of the pass modules, which reach them as `super::…`.
-pub(crate) use pipelines::{color_attachment, storage_entry, texture_entry};
+pub(crate) use crate::wgpu_util::{storage_entry, texture_entry};
+pub(crate) use pipelines::color_attachment;
 use pipelines::{geometry_pass_layout, geometry_pipeline, sphere_pass_layout, sphere_pipeline};
 
 /// Face id written where no surface is seen.
@@ -293,20 +294,11 @@ impl Renderer {
         };
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Renderer::globals_layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX
-                    | wgpu::ShaderStages::FRAGMENT
-                    | wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(
-                        std::mem::size_of::<RenderGlobals>() as u64
-                    ),
-                },
-                count: None,
-            }],
+            entries: &[crate::wgpu_util::uniform_entry::<RenderGlobals>(
+                0,
+                wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+                false,
+            )],
         });
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("Renderer::globals"),

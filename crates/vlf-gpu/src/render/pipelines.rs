@@ -3,6 +3,7 @@
 //! vertex-pulling render pipeline. Each pass still owns its objects and labels them.
 
 use super::upload::GpuLightField;
+use crate::wgpu_util::storage_entry;
 
 pub(crate) fn color_attachment(
     view: &wgpu::TextureView,
@@ -16,40 +17,6 @@ pub(crate) fn color_attachment(
             load: wgpu::LoadOp::Clear(clear),
             store: wgpu::StoreOp::Store,
         },
-    }
-}
-
-pub(crate) fn storage_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    read_only: bool,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-pub(crate) fn texture_entry(
-    binding: u32,
-    visibility: wgpu::ShaderStages,
-    sample_type: wgpu::TextureSampleType,
-) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Texture {
-            sample_type,
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
     }
 }
 
@@ -137,11 +104,11 @@ fn render_pipeline(
     depth: Option<wgpu::DepthStencilState>,
     (vs, fs): (&str, &str),
 ) -> wgpu::RenderPipeline {
-    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some(&format!("{pass}::pipeline_layout")),
-        bind_group_layouts: &[Some(globals_layout), Some(pass_layout)],
-        immediate_size: 0,
-    });
+    let layout = crate::wgpu_util::pipeline_layout(
+        device,
+        &format!("{pass}::pipeline_layout"),
+        &[Some(globals_layout), Some(pass_layout)],
+    );
     let module = shader.module(device);
     let targets: Vec<_> = formats
         .iter()

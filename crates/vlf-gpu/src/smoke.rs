@@ -1,10 +1,14 @@
 //! The smoke pass: `y = a·x + b` over a buffer, with the invocation index written alongside.
-//! It proves the device, shader loading, our binding conventions and readback work end to end.
+//! It proves the device, shader loading, our binding conventions and readback work end to end
+//! (`vlf-bake gpu-check`, `tests/suite/gpu_smoke.rs`).
 
 use crate::layout::SmokeParams;
-use crate::passes::dispatch_2d;
 use crate::readback::{read_buffer, storage_buffer};
 use crate::shaders;
+use crate::wgpu_util::{
+    buffer_bind_group, compute_pipeline, compute_storage, dispatch_2d, pipeline_layout,
+    uniform_entry,
+};
 use wgpu::util::DeviceExt;
 
 pub struct SmokePass {
@@ -19,47 +23,23 @@ impl SmokePass {
     pub fn new(device: &wgpu::Device) -> Self {
         let globals_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Smoke::globals_layout"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: wgpu::BufferSize::new(
-                        std::mem::size_of::<SmokeParams>() as u64
-                    ),
-                },
-                count: None,
-            }],
+            entries: &[uniform_entry::<SmokeParams>(
+                0,
+                wgpu::ShaderStages::COMPUTE,
+                false,
+            )],
         });
-        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         let pass_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("Smoke::pass_layout"),
-            entries: &[storage(0, true), storage(1, false)],
+            entries: &[compute_storage(0, true), compute_storage(1, false)],
         });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("Smoke::pipeline_layout"),
-            bind_group_layouts: &[Some(&globals_layout), Some(&pass_layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline_layout(
+            device,
+            "Smoke::pipeline_layout",
+            &[Some(&globals_layout), Some(&pass_layout)],
+        );
         let module = shaders::SMOKE.module(device);
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("Smoke::pipeline"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some("main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "Smoke", &layout, &module, "main");
         Self {
             globals_layout,
             pass_layout,
@@ -91,28 +71,18 @@ impl SmokePass {
         let x_buf = storage_buffer(device, "Smoke::xs", xs, wgpu::BufferUsages::empty());
         let init = vec![[f32::NAN; 2]; xs.len().max(1)];
         let y_buf = storage_buffer(device, "Smoke::ys", &init, wgpu::BufferUsages::COPY_SRC);
-        let globals_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("Smoke::globals_bind_group"),
-            layout: &self.globals_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            }],
-        });
-        let pass_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("Smoke::pass_bind_group"),
-            layout: &self.pass_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: x_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: y_buf.as_entire_binding(),
-                },
-            ],
-        });
+        let globals_bg = buffer_bind_group(
+            device,
+            "Smoke::globals_bind_group",
+            &self.globals_layout,
+            &[&globals],
+        );
+        let pass_bg = buffer_bind_group(
+            device,
+            "Smoke::pass_bind_group",
+            &self.pass_layout,
+            &[&x_buf, &y_buf],
+        );
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("Smoke::encoder"),
         });
