@@ -421,10 +421,7 @@ pub fn sweep_command(args: &SweepArgs, device: DeviceArg, _quiet: bool) -> anyho
                 spp,
                 time_s: s,
                 work_bytes: path_tracer_bytes(&prep) + u64::from(w) * u64::from(h) * 12,
-                device: format!(
-                    "CPU path tracer, {} threads",
-                    std::thread::available_parallelism().map_or(1, |n| n.get())
-                ),
+                device: format!("CPU path tracer, {} threads", vlf_core::par::threads(0)),
                 ..Default::default()
             };
             sweep.record(row, &img)?;

@@ -1,11 +1,18 @@
-//! Deterministic data parallelism over index ranges: the work is cut into chunks that worker
-//! threads take in turn, and the results come back in index order, so the output never depends
-//! on the thread count or on scheduling. [`ordered`] folds the results in index order as they
-//! come (a sum in a fixed order, with a bounded number of results waiting).
+//! Deterministic data parallelism, the one place vlf-core starts worker threads. Plain data
+//! parallelism ([`map`], [`map_ranges`], [`pool`]) runs on rayon: work cut into chunks whose
+//! results come back in index order, so the output never depends on the thread count or on
+//! scheduling. [`ordered`] is written by hand because rayon has no bounded, index-ordered fold:
+//! the propagation sums each direction's contribution into the iteration in direction order
+//! (the file's bits must not depend on the schedule) while holding at most a window of
+//! directions' results in memory; rayon's ordered `collect` would hold them all, its `reduce`
+//! would combine them in a tree whose shape depends on the split.
 
+use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Condvar, Mutex, mpsc};
+use std::sync::{Arc, Condvar, Mutex, OnceLock, mpsc};
+
+use rayon::prelude::*;
 
 /// Worker threads for a request: `0` means every available core.
 pub fn threads(requested: usize) -> usize {
@@ -14,6 +21,29 @@ pub fn threads(requested: usize) -> usize {
     } else {
         requested
     }
+}
+
+/// The rayon pool of `threads` workers (0 = all cores; `--threads`), built on first use and
+/// kept for the process (one per thread count asked for).
+pub fn pool(threads: usize) -> Arc<rayon::ThreadPool> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let n = self::threads(threads);
+    let mut pools = POOLS
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|p| p.into_inner());
+    pools
+        .entry(n)
+        .or_insert_with(|| {
+            Arc::new(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .thread_name(move |i| format!("vlf-{n}-{i}"))
+                    .build()
+                    .unwrap_or_else(|e| panic!("cannot start {n} worker threads: {e}")),
+            )
+        })
+        .clone()
 }
 
 /// `f(i)` for every `i` in `0..n`, in order, computed on `threads` workers (0 = all cores) in
@@ -28,7 +58,7 @@ pub fn map<T: Send>(
 }
 
 /// `f(range)` over consecutive ranges of at most `chunk` indices covering `0..n`, each
-/// returning one item per index, concatenated in order.
+/// returning one item per index, concatenated in order. A panic in `f` is re-raised.
 pub fn map_ranges<T: Send>(
     n: usize,
     threads: usize,
@@ -37,35 +67,17 @@ pub fn map_ranges<T: Send>(
 ) -> Vec<T> {
     let chunk = chunk.max(1);
     let chunks = n.div_ceil(chunk);
-    let workers = self::threads(threads).min(chunks);
-    if workers <= 1 {
+    if self::threads(threads).min(chunks) <= 1 {
         return f(0..n);
     }
-    let next = AtomicUsize::new(0);
-    let mut parts: Vec<(usize, Vec<T>)> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut done = Vec::new();
-                    loop {
-                        let c = next.fetch_add(1, Ordering::Relaxed);
-                        if c >= chunks {
-                            break done;
-                        }
-                        let r = c * chunk..((c + 1) * chunk).min(n);
-                        done.push((c, f(r)));
-                    }
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+    let parts: Vec<Vec<T>> = pool(threads).install(|| {
+        (0..chunks)
+            .into_par_iter()
+            .map(|c| f(c * chunk..((c + 1) * chunk).min(n)))
             .collect()
     });
-    parts.sort_unstable_by_key(|p| p.0);
     let mut out = Vec::with_capacity(n);
-    for (_, p) in parts {
+    for p in parts {
         out.extend(p);
     }
     out

@@ -1,8 +1,10 @@
 //! Bulk radiance work (reading and verifying sections, encoding, decoding, checksums) split
 //! over threads in runs of whole checksum blocks, so that every thread hashes the blocks it
-//! reads and block hashes come back in order.
+//! reads and block hashes come back in order. Runs on `par`'s rayon pool.
 
 use std::ops::Range;
+
+use rayon::prelude::*;
 
 /// Work of at least this many bytes is spread over several threads.
 pub(crate) const PARALLEL_MIN_BYTES: usize = 4 << 20;
@@ -12,10 +14,7 @@ pub(crate) fn threads_for(bytes: usize) -> usize {
     if bytes < PARALLEL_MIN_BYTES {
         1
     } else {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-            .min(8)
+        crate::par::threads(0).min(8)
     }
 }
 
@@ -34,16 +33,11 @@ pub(crate) fn blocks_mut<T: Send, R: Send>(
     }
     let blocks_per_thread = blocks.div_ceil(threads);
     let chunk = blocks_per_thread * per_block;
-    std::thread::scope(|s| {
-        let work = &work;
-        let handles: Vec<_> = items
-            .chunks_mut(chunk)
+    crate::par::pool(threads).install(|| {
+        items
+            .par_chunks_mut(chunk)
             .enumerate()
-            .map(|(t, c)| s.spawn(move || work(t * blocks_per_thread, c)))
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .map(|(t, c)| work(t * blocks_per_thread, c))
             .collect()
     })
 }
@@ -63,15 +57,10 @@ pub(crate) fn block_ranges<R: Send>(
         return vec![work(0..blocks)];
     }
     let per_thread = blocks.div_ceil(threads);
-    std::thread::scope(|s| {
-        let work = &work;
-        let handles: Vec<_> = (0..blocks)
-            .step_by(per_thread)
-            .map(|b| s.spawn(move || work(b..(b + per_thread).min(blocks))))
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+    crate::par::pool(threads).install(|| {
+        (0..blocks.div_ceil(per_thread))
+            .into_par_iter()
+            .map(|k| work(k * per_thread..((k + 1) * per_thread).min(blocks)))
             .collect()
     })
 }

@@ -110,7 +110,9 @@ fn install_ctrl_c(tx: mpsc::Sender<Event>) {
 }
 
 /// `setup.jobs` worker threads (at most one per job) taking `jobs` in turn until they run out
-/// or `stop` is set.
+/// or `stop` is set. A queue of whole bakes, not data parallelism: each worker needs a large
+/// stack, reports through the channel and is stopped by Ctrl-C between scenes, and each bake
+/// runs its own data parallelism on `vlf_core::par`'s pool (`docs/ARCHITECTURE.md`).
 fn start_workers(
     setup: &Setup,
     jobs: VecDeque<Job>,

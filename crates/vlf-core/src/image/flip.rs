@@ -149,9 +149,7 @@ pub fn flip_hdr(test: &Image, reference: &Image, params: &FlipParams) -> FlipRes
     let filters = Filters::new(params.ppd);
     let step = (range.stop - range.start) / (range.count - 1) as f32;
     let count = range.count as usize;
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |p| p.get())
-        .clamp(1, count);
+    let threads = crate::par::threads(0).clamp(1, count);
     let worker = |first: usize| {
         let mut scratch = Scratch::new(n);
         let mut max_map = vec![0.0f32; n];
@@ -171,17 +169,9 @@ pub fn flip_hdr(test: &Image, reference: &Image, params: &FlipParams) -> FlipRes
         }
         max_map
     };
-    let mut maps: Vec<Vec<f32>> = if threads == 1 {
-        vec![worker(0)]
-    } else {
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..threads).map(|k| s.spawn(move || worker(k))).collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().expect("HDR-FLIP worker panicked"))
-                .collect()
-        })
-    };
+    // One job per worker, each with its own scratch over a stride of the exposures; the
+    // maxima are exact and order-free.
+    let mut maps: Vec<Vec<f32>> = crate::par::map(threads, threads, 1, worker);
     let mut map = maps.swap_remove(0);
     for other in &maps {
         for (acc, &v) in map.iter_mut().zip(other) {

@@ -42,8 +42,7 @@ pub mod lights;
 pub mod material;
 pub mod sampling;
 
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
 
@@ -576,50 +575,38 @@ pub fn render(
     let (w, h) = (settings.width, settings.height);
     let tiles_x = w.div_ceil(TILE);
     let tiles = tiles_x * h.div_ceil(TILE);
-    let threads = if settings.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        settings.threads
-    }
-    .clamp(1, tiles as usize);
-    let next = AtomicU32::new(0);
     let done = AtomicU64::new(0);
     let total = u64::from(w) * u64::from(h) * u64::from(settings.spp);
-    let image = Mutex::new(Image::new(w, h, [0.0; 3]));
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| {
-                let mut buf = Vec::with_capacity((TILE * TILE) as usize);
-                loop {
-                    let tile = next.fetch_add(1, Ordering::Relaxed);
-                    if tile >= tiles {
-                        break;
-                    }
-                    let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-                    let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-                    buf.clear();
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            buf.push(render_pixel(prep, camera, settings, x, y));
-                        }
-                    }
-                    {
-                        let mut img = image.lock().unwrap_or_else(|e| e.into_inner());
-                        let mut k = 0;
-                        for y in y0..y1 {
-                            for x in x0..x1 {
-                                img.pixels[(y * w + x) as usize] = buf[k];
-                                k += 1;
-                            }
-                        }
-                    }
-                    let n = u64::from((x1 - x0) * (y1 - y0)) * u64::from(settings.spp);
-                    progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
-                }
-            });
+    // Tiles on the worker pool; each returns its pixels, written in place afterwards (the
+    // image does not depend on which worker rendered which tile).
+    let rendered = crate::par::map(tiles as usize, settings.threads, 1, |tile| {
+        let tile = tile as u32;
+        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+        let mut buf = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                buf.push(render_pixel(prep, camera, settings, x, y));
+            }
         }
+        let n = u64::from((x1 - x0) * (y1 - y0)) * u64::from(settings.spp);
+        progress(done.fetch_add(n, Ordering::Relaxed) + n, total);
+        buf
     });
-    Ok(image.into_inner().unwrap_or_else(|e| e.into_inner()))
+    let mut image = Image::new(w, h, [0.0; 3]);
+    for (tile, buf) in rendered.into_iter().enumerate() {
+        let tile = tile as u32;
+        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+        let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+        let mut k = 0;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                image.pixels[(y * w + x) as usize] = buf[k];
+                k += 1;
+            }
+        }
+    }
+    Ok(image)
 }
 
 /// Mean of `settings.spp` samples of pixel `(x, y)`.

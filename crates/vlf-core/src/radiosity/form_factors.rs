@@ -8,8 +8,6 @@
 //! standard deviation is about `sqrt((1 − F_ij) / (N · F_ij))` (less with stratification).
 //! Rows sum to 1 − (escaping fraction) − (lost fraction).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use glam::{Vec2, Vec3, Vec4};
 
 use super::{RadiosityError, RadiositySettings, non_diffuse_faces};
@@ -170,33 +168,12 @@ pub fn form_factors(
     const BLOCK: usize = 64;
     let n = patch_texel.len();
     let blocks = n.div_ceil(BLOCK);
-    let next = AtomicUsize::new(0);
-    let threads = settings.worker_threads().clamp(1, blocks.max(1));
-    let mut done: Vec<(usize, Vec<Row>)> = std::thread::scope(|s| {
-        let workers: Vec<_> = (0..threads)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut out = Vec::new();
-                    loop {
-                        let b = next.fetch_add(1, Ordering::Relaxed);
-                        if b >= blocks {
-                            break;
-                        }
-                        let rows = (b * BLOCK..((b + 1) * BLOCK).min(n))
-                            .map(|p| patch_row(&ctx, p))
-                            .collect();
-                        out.push((b, rows));
-                    }
-                    out
-                })
-            })
+    let done: Vec<(usize, Vec<Row>)> = crate::par::map(blocks, settings.threads, 1, |b| {
+        let rows = (b * BLOCK..((b + 1) * BLOCK).min(n))
+            .map(|p| patch_row(&ctx, p))
             .collect();
-        workers
-            .into_iter()
-            .flat_map(|w| w.join().expect("form-factor worker panicked"))
-            .collect()
+        (b, rows)
     });
-    done.sort_by_key(|(b, _)| *b);
 
     let nonzeros: u64 = done
         .iter()

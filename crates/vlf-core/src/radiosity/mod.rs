@@ -89,11 +89,7 @@ impl RadiositySettings {
 
     /// The thread count to use (resolves 0 to the available parallelism).
     pub fn worker_threads(&self) -> usize {
-        if self.threads > 0 {
-            self.threads
-        } else {
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        }
+        crate::par::threads(self.threads)
     }
 }
 

@@ -126,16 +126,16 @@ pub fn jacobi_sweep(
     if threads <= 1 || n < 2 * chunk {
         return sweep(0, dst);
     }
-    std::thread::scope(|s| {
-        let handles: Vec<_> = dst
-            .chunks_mut(chunk)
+    use rayon::prelude::*;
+    crate::par::pool(threads).install(|| {
+        let parts: Vec<(f32, f32)> = dst
+            .par_chunks_mut(chunk)
             .enumerate()
-            .map(|(c, out)| s.spawn(move || sweep(c * chunk, out)))
+            .map(|(c, out)| sweep(c * chunk, out))
             .collect();
         // max is exact and order-free: the result does not depend on the split.
-        handles
+        parts
             .into_iter()
-            .map(|h| h.join().expect("Jacobi worker panicked"))
             .fold((0f32, 0f32), |a, b| (a.0.max(b.0), a.1.max(b.1)))
     })
 }
