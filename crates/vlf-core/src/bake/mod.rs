@@ -13,7 +13,7 @@ pub mod reference;
 pub mod refine;
 
 pub use prep::BakeScene;
-pub use quality::Quality;
+pub use quality::{Preset, Quality};
 
 use crate::directions::DirectionSet;
 use crate::lightfield::{
