@@ -20,7 +20,7 @@
 //!   reference's shadows of the masked screen are solid, `docs/TRANSMISSION.md`).
 
 use glam::Vec3;
-use vlf_core::bake::{BakeScene, Quality, auto};
+use vlf_core::bake::{BakeScene, Quality, refine};
 use vlf_core::directions::DirectionSet;
 use vlf_core::image::{self, Image};
 use vlf_core::lightfield::BakeStats;
@@ -61,7 +61,7 @@ fn stills_and_reference(
         scene.flatten_normals();
     }
     // What `vlf-bake bake` does by default: the auto preset refined from the scene.
-    let mut params = auto::choose(&scene, Quality::Auto, final_gather).params;
+    let mut params = refine::refine(&scene, Quality::Auto, final_gather).params;
     params.sky = sky;
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();

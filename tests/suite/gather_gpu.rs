@@ -82,11 +82,11 @@ fn gp() -> GatherParams {
 }
 
 /// The gather settings `vlf-bake bake` picks for `scene` by default (`--quality auto`, from
-/// `bake::auto`), with the texels of both grids 4× larger so that the test stays affordable on
+/// `bake::refine`), with the texels of both grids 4× larger so that the test stays affordable on
 /// a software adapter: the sample counts per texel (64 light samples, 16 direct and 256
 /// indirect rays on the Cornell boxes), which are what the steps split, are the default's.
 fn default_counts(scene: &Scene) -> GatherParams {
-    let mut gp = vlf_core::bake::auto::choose(scene, Quality::Auto, true)
+    let mut gp = vlf_core::bake::refine::refine(scene, Quality::Auto, true)
         .params
         .final_gather
         .expect("the default bake gathers");

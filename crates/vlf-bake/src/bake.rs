@@ -9,16 +9,12 @@ use vlf_core::bake::reference::Progress;
 use vlf_core::bake::{self, Quality};
 use vlf_core::lightfield::{BakeParams, BakeStats, Iterations};
 
-use crate::cli::{BakeArgs, DeviceArg, IterationsArg, OnOff, QualityArg};
+use crate::cli::{BakeArgs, DeviceArg, IterationsArg, OnOff};
 use crate::memory::{self, Budget};
 use crate::{Compute, open_device};
 
 fn quality(a: &BakeArgs) -> Quality {
-    match a.quality {
-        QualityArg::Draft => Quality::Draft,
-        QualityArg::Auto => Quality::Auto,
-        QualityArg::High => Quality::High,
-    }
+    a.quality.into()
 }
 
 fn final_gather(a: &BakeArgs) -> bool {
@@ -27,23 +23,20 @@ fn final_gather(a: &BakeArgs) -> bool {
 
 /// Parameters from the preset and the explicit options, before looking at a scene.
 pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
-    let mut p = quality(a).params();
-    if final_gather(a) {
-        p.final_gather = Some(quality(a).gather());
-    }
+    let mut p = quality(a).preset().params(final_gather(a));
     apply_explicit(a, &mut p);
     p.validate().context("bake parameters")?;
     Ok(p)
 }
 
-/// Parameters for `scene`: the preset refined by the scene rules (`vlf_core::bake::auto`: ray
-/// spacing, tile size, perturbation, threshold), then every explicit option on top. Returns
-/// the rules' reasons for `-v` and `--json`.
+/// Parameters for `scene`: the preset refined by the scene rules (`vlf_core::bake::refine`: ray
+/// spacing, tile size, perturbation, the final gather's texels), then every explicit option on
+/// top. Returns the rules' reasons for `-v` and `--json`.
 pub fn resolve_params(
     a: &BakeArgs,
     scene: &vlf_core::scene::Scene,
 ) -> anyhow::Result<(BakeParams, Vec<String>)> {
-    let report = bake::auto::choose(scene, quality(a), final_gather(a));
+    let report = bake::refine::refine(scene, quality(a), final_gather(a));
     let mut p = report.params;
     let mut reasons = report.reasons;
     apply_explicit(a, &mut p);
@@ -108,7 +101,7 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
         }
         if let Some(mode) = a.gather_sampling {
             use crate::cli::GatherSampling;
-            let preset = quality(a).gather().sampling;
+            let preset = quality(a).preset().gather.sampling;
             g.sampling = match mode {
                 GatherSampling::Fixed => vlf_core::lightfield::Sampling::FIXED,
                 GatherSampling::Guided => vlf_core::lightfield::Sampling {

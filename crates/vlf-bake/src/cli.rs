@@ -40,16 +40,26 @@ pub enum DeviceArg {
     Cpu,
 }
 
+/// `--quality`: the presets' numbers are `vlf_core::bake::quality::Preset`, tabled in
+/// docs/QUALITY.md.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum QualityArg {
-    /// Fast preview: 126 directions, 32–64 rays per side, stop at 1e-2.
+    /// Fast preview.
     Draft,
-    /// The default: 246 directions with the final gather (606 without), 64–256 rays per side
-    /// from the scene, stop at 1e-3.
+    /// The default.
     Auto,
-    /// 606 directions with the final gather (2,206 without), 128–512 rays per side from the
-    /// scene, stop at 1e-4.
+    /// Slow, for references and final bakes.
     High,
+}
+
+impl From<QualityArg> for vlf_core::bake::Quality {
+    fn from(q: QualityArg) -> Self {
+        match q {
+            QualityArg::Draft => Self::Draft,
+            QualityArg::Auto => Self::Auto,
+            QualityArg::High => Self::High,
+        }
+    }
 }
 
 /// `--gather-sampling`.
@@ -109,9 +119,10 @@ impl std::str::FromStr for Rgb {
 /// Parameters of a bake; unset ones come from `--quality`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct BakeArgs {
-    /// Parameter preset, refined from the scene (ray spacing from the distances between
-    /// mutually visible faces, tile size from the triangle density, perturbed directions for
-    /// small emitters; see docs/QUALITY.md); explicit options below override it.
+    /// Parameter preset (its numbers: docs/QUALITY.md), refined from the scene (ray spacing
+    /// from the distances between mutually visible faces, tile size from the triangle density,
+    /// perturbed directions for small emitters, the final gather's texels for sharp shadows);
+    /// explicit options below override it.
     #[arg(long, value_enum, default_value_t = QualityArg::Auto)]
     pub quality: QualityArg,
     /// Number of directions l (rounded up to the next geodesic set, 5k²+1).
@@ -127,8 +138,8 @@ pub struct BakeArgs {
     /// --threshold of the emitted power.
     #[arg(long)]
     pub iterations: Option<IterationsArg>,
-    /// Convergence threshold for `--iterations auto` (default from --quality: draft 1e-2,
-    /// auto 1e-3, high 1e-4).
+    /// Convergence threshold for `--iterations auto` (default from --quality,
+    /// docs/QUALITY.md).
     #[arg(long)]
     pub threshold: Option<f32>,
     /// Perturbed (virtual) transport directions per fixed direction.
@@ -143,11 +154,11 @@ pub struct BakeArgs {
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub final_gather: OnOff,
     /// Texel edge of the gathered atlas, relative to the ray spacing (default from --quality
-    /// and the scene).
+    /// and the scene, docs/QUALITY.md).
     #[arg(long, value_name = "S")]
     pub gather_texel_scale: Option<f32>,
-    /// Gather rays per texel of the final gather's indirect grid (default from --quality:
-    /// draft 64, auto 256, high 1024).
+    /// Gather rays per texel of the final gather's indirect grid (default from --quality,
+    /// docs/QUALITY.md).
     #[arg(long, value_name = "R")]
     pub gather_rays: Option<u32>,
     /// How the final gather samples direct light (default from --quality, docs/QUALITY.md):
@@ -156,10 +167,12 @@ pub struct BakeArgs {
     /// more rounds where a texel's estimated error is above --gather-target (docs/GATHER.md).
     #[arg(long, value_enum, value_name = "MODE")]
     pub gather_sampling: Option<GatherSampling>,
-    /// Relative standard error that adaptive sampling stops at (default from --quality).
+    /// Relative standard error that adaptive sampling stops at (default from --quality,
+    /// docs/QUALITY.md).
     #[arg(long, value_name = "E")]
     pub gather_target: Option<f32>,
-    /// Most rounds of samples per texel under adaptive sampling (default from --quality).
+    /// Most rounds of samples per texel under adaptive sampling (default from --quality,
+    /// docs/QUALITY.md).
     #[arg(long, value_name = "N")]
     pub gather_max_rounds: Option<u32>,
     /// The edge-aware atlas denoiser after the final gather (docs/GATHER.md); the file records
@@ -527,7 +540,7 @@ pub struct SweepArgs {
     /// average over the pixel square).
     #[arg(long, default_value_t = 16)]
     pub render_spp: u32,
-    /// Also bake the high preset (slow: 2,206 directions and 128–512 rays per side).
+    /// Also bake the high preset (slow; its numbers: docs/QUALITY.md).
     #[arg(long)]
     pub with_high: bool,
     /// Bake only the grid points with these labels (comma-separated, e.g. `auto,l=126 N=128`).

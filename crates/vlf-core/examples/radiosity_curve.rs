@@ -43,7 +43,7 @@ fn main() {
     let sweeps: u32 = pos.get(2).map_or(40, |s| s.parse().expect("SWEEPS"));
 
     let scene = vlf_core::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    let params = bake::auto::choose(&scene, Quality::Auto, false).params;
+    let params = bake::refine::refine(&scene, Quality::Auto, false).params;
     let prep = BakeScene::new(&scene, &params).expect("params");
     let settings = RadiositySettings {
         rays_per_patch: rays,

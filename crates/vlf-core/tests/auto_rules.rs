@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use vlf_core::bake::{Quality, auto};
+use vlf_core::bake::{Quality, refine};
 
 fn shared(rel: &str) -> PathBuf {
     PathBuf::from(concat!(
@@ -32,7 +32,7 @@ fn auto_preset_without_the_gather_on_the_shared_scenes_matches_the_quality_table
     ];
     for (rel, n, m, perturb, sun_rule) in table {
         let scene = vlf_core::scene::load(&shared(rel)).unwrap();
-        let r = auto::choose(&scene, Quality::Auto, false);
+        let r = refine::refine(&scene, Quality::Auto, false);
         assert_eq!(r.params.final_gather, None);
         let got = (r.params.resolution, r.params.tile, r.params.perturb);
         assert_eq!(got, (n, m, perturb), "{rel}: {:#?}", r.reasons);
@@ -66,7 +66,7 @@ fn auto_preset_with_the_gather_on_the_shared_scenes_matches_the_quality_table() 
     ];
     for (rel, n, m, texel) in table {
         let scene = vlf_core::scene::load(&shared(rel)).unwrap();
-        let r = auto::choose(&scene, Quality::Auto, true);
+        let r = refine::refine(&scene, Quality::Auto, true);
         let g = r.params.final_gather.expect("gather chosen");
         let got = (r.params.resolution, r.params.tile, r.params.perturb);
         assert_eq!(got, (n, m, 0), "{rel}: {:#?}", r.reasons);
@@ -90,9 +90,9 @@ fn auto_preset_with_the_gather_on_the_shared_scenes_matches_the_quality_table() 
 fn presets_grow_monotonically() {
     let scene = vlf_core::scene::load(&shared("cornell-box/cornell.gltf")).unwrap();
     for gather in [false, true] {
-        let d = auto::choose(&scene, Quality::Draft, gather).params;
-        let a = auto::choose(&scene, Quality::Auto, gather).params;
-        let h = auto::choose(&scene, Quality::High, gather).params;
+        let d = refine::refine(&scene, Quality::Draft, gather).params;
+        let a = refine::refine(&scene, Quality::Auto, gather).params;
+        let h = refine::refine(&scene, Quality::High, gather).params;
         assert!(d.directions < a.directions && a.directions < h.directions);
         assert!(d.resolution <= a.resolution && a.resolution <= h.resolution);
     }

@@ -562,7 +562,7 @@ fn no_outside_light_reaches_a_closed_room_across_a_wall_of_touching_boxes() {
     let mut params = gp(texel, 2.0 * texel, 16, 64);
     for sampling in [
         vlf_core::lightfield::Sampling::FIXED,
-        Quality::Auto.gather().sampling,
+        Quality::Auto.preset().gather.sampling,
     ] {
         params.sampling = sampling;
         let g = bake_and_gather(&scene, Vec3::ONE, &params, 0);

@@ -253,7 +253,7 @@ fn guided() -> GatherParams {
     GatherParams {
         texel_scale: 0.5,
         indirect_texel_scale: 2.0,
-        ..vlf_core::bake::Quality::Auto.gather()
+        ..vlf_core::bake::Quality::Auto.preset().gather
     }
 }
 

@@ -75,7 +75,7 @@ fn report(what: &str, out: &Propagated, seconds: f64) -> (f64, f64) {
 /// The default preset's propagation (`Quality::Auto`: 512 directions, 64² rays, texels of 2×2
 /// rays, unshot below 1e-3 of the emitted power, at most 64 iterations).
 fn auto_params() -> BakeParams {
-    let p = Quality::Auto.params();
+    let p = Quality::Auto.preset().params(false);
     assert_eq!(
         p.iterations,
         Iterations::Converge {

@@ -141,7 +141,7 @@ fn main() {
         }
     } else {
         let paper = BakeParams::paper();
-        let auto = Quality::Auto.params();
+        let auto = Quality::Auto.preset().params(false);
         for gpu in [ctx.as_ref(), None] {
             if gpu.is_none() && ctx.is_some() && quick {
                 continue;

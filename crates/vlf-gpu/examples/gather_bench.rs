@@ -4,7 +4,7 @@
 //! `cargo run --release -p vlf-gpu --example gather_bench -- [SCENE.gltf] [--resolution N]`
 //!
 //! Default: the Cornell box with the parameters `vlf-bake bake` picks for it by default
-//! (`bake::auto` at `--quality auto`: resolution, directions, gather settings), propagated on
+//! (`bake::refine` at `--quality auto`: resolution, directions, gather settings), propagated on
 //! the GPU (4 iterations; `--resolution N` overrides). Prints wall time and the process's CPU
 //! time (user + system, from /proc/self/stat, lavapipe's worker threads included: on a loaded
 //! machine the fairer figure) of each gather; `GATHER_BENCH_ROUNDS=n` alternates n GPU and n
@@ -50,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         i += 1;
     }
     let scene = vlf_core::scene::load(std::path::Path::new(&path))?;
-    let auto = vlf_core::bake::auto::choose(&scene, Quality::Auto, true).params;
+    let auto = vlf_core::bake::refine::refine(&scene, Quality::Auto, true).params;
     let mut gp = auto.final_gather.expect("the default bake gathers");
     if let Ok(v) = std::env::var("GATHER_BENCH_GP") {
         // texel scale, indirect texel scale, light samples, direct rays, indirect rays

@@ -38,7 +38,7 @@ fn main() {
     let ctx = GpuContext::new(&DeviceOptions::default()).expect("GPU");
     println!("adapter: {}", ctx.summary);
     let scene = vlf_core::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    let params = bake::auto::choose(&scene, Quality::Auto, false).params;
+    let params = bake::refine::refine(&scene, Quality::Auto, false).params;
     let prep = BakeScene::new(&scene, &params).expect("params");
     let settings = RadiositySettings {
         rays_per_patch: rays,

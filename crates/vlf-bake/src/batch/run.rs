@@ -220,7 +220,8 @@ fn bake_one(
         &job.input,
         String::new(),
         &job.output,
-        params_from_args(args).unwrap_or_else(|_| vlf_core::bake::Quality::Auto.params()),
+        params_from_args(args)
+            .unwrap_or_else(|_| vlf_core::bake::Quality::Auto.preset().params(false)),
     );
     rec.status = Status::Ok;
     rec.total_s = t.elapsed().as_secs_f64();

@@ -1,19 +1,19 @@
-//! Baking: quality presets and the scene-driven choice of parameters, the prepared (VLF-space,
+//! Baking: quality presets and the scene rules that refine them, the prepared (VLF-space,
 //! GPU-ready) scene, the diffuse atlas, and the CPU reference propagator. The GPU propagator in `vlf-gpu` consumes exactly the same prepared
 //! arrays ([`prep::BakeScene`]) and must agree with [`reference`].
 //!
 //! See `docs/PROPAGATION.md` for the algorithm and why it departs from the paper's painter's
 //! sort (exact per-ray depth lists) and float-atomic scatter (per-texel gather).
 
-pub mod auto;
 pub mod glossy;
 pub mod prep;
 pub mod punctual;
 pub mod quality;
 pub mod reference;
+pub mod refine;
 
 pub use prep::BakeScene;
-pub use quality::Quality;
+pub use quality::{Preset, Quality};
 
 use crate::directions::DirectionSet;
 use crate::lightfield::{
