@@ -171,16 +171,20 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let scene = vlf_core::scene::load(path)?;
     let summary = scene.summary();
     let lights: Vec<LightReport> = scene.lights.iter().map(LightReport::of).collect();
+    // Each material's subsurface model (docs/SUBSURFACE.md).
+    let translucency = scene.material_translucency();
     if json {
         #[derive(serde::Serialize)]
         struct Inspect<'a> {
             #[serde(flatten)]
             summary: &'a vlf_core::scene::SceneSummary,
             lights: &'a [LightReport],
+            translucency: &'a [vlf_core::scene::MaterialTranslucency],
         }
         let out = Inspect {
             summary: &summary,
             lights: &lights,
+            translucency: &translucency,
         };
         println!("{}", serde_json::to_string_pretty(&out)?);
         return Ok(());
@@ -189,6 +193,9 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     println!("{}", serde_json::to_string_pretty(&summary)?);
     for l in &lights {
         println!("{l}");
+    }
+    for m in &translucency {
+        println!("{m}");
     }
     for w in &scene.warnings {
         println!("warning: {w}");

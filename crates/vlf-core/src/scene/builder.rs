@@ -3,7 +3,7 @@
 use glam::{Vec2, Vec3};
 
 use super::faces::{RawTriangle, build_faces};
-use super::{Aabb, Material, MaterialKind, Scene, fit_similarity};
+use super::{Aabb, Material, MaterialKind, Scene, Translucency, fit_similarity};
 
 /// Accumulates triangles and materials, then builds a [`Scene`] exactly as the glTF importer
 /// does (faces merged, VLF transform fitted).
@@ -11,6 +11,7 @@ use super::{Aabb, Material, MaterialKind, Scene, fit_similarity};
 pub struct SceneBuilder {
     triangles: Vec<RawTriangle>,
     materials: Vec<Material>,
+    translucency: Vec<(u32, Translucency)>,
 }
 
 impl SceneBuilder {
@@ -46,6 +47,12 @@ impl SceneBuilder {
             metallic: 1.0,
             roughness: 0.0,
         })
+    }
+
+    /// Gives material `material` the subsurface model `model` (`docs/SUBSURFACE.md`).
+    pub fn translucent(&mut self, material: u32, model: Translucency) -> &mut Self {
+        self.translucency.push((material, model));
+        self
     }
 
     /// Adds any material; returns its index.
@@ -103,6 +110,10 @@ impl SceneBuilder {
             }
         }
         let to_vlf = fit_similarity(&triangles, &bounds);
+        let mut translucency = vec![Translucency::None; self.materials.len()];
+        for (m, model) in self.translucency {
+            translucency[m as usize] = model;
+        }
         Scene {
             triangles,
             faces,
@@ -111,6 +122,7 @@ impl SceneBuilder {
             cameras: Vec::new(),
             suns: Vec::new(),
             lights: Vec::new(),
+            translucency,
             bounds,
             to_vlf,
             warnings: Vec::new(),

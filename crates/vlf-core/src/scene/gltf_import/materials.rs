@@ -98,7 +98,8 @@ impl Importer<'_> {
         };
         if let Some(exts) = raw.get("extensions").and_then(Value::as_object) {
             for name in exts.keys() {
-                if name != "KHR_materials_emissive_strength" {
+                if name != "KHR_materials_emissive_strength" && !super::translucency::handles(name)
+                {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }
