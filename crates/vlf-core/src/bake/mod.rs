@@ -11,6 +11,7 @@ pub mod prep;
 pub mod punctual;
 pub mod quality;
 pub mod reference;
+pub mod subsurface;
 
 pub use prep::BakeScene;
 pub use quality::Quality;

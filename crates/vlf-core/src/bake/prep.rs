@@ -20,7 +20,7 @@ use crate::lightfield::{
     BakeFace, BakeParams, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED, ParamsError,
 };
 use crate::pathtrace::lights::DeltaLight;
-use crate::scene::{MaterialKind, Scene, Texture};
+use crate::scene::{MaterialKind, Scene, Texture, Translucency};
 
 /// Summary of a prepared scene (for logs and `--json`).
 #[derive(Clone, Debug, Serialize)]
@@ -61,6 +61,12 @@ pub struct BakeScene {
     /// VLF scale², so irradiance is unchanged): their direct light is injected into the
     /// propagation's first iteration ([`super::punctual`]).
     pub lights: Vec<DeltaLight>,
+    /// Each material's subsurface model in VLF units (coefficients per VLF unit; a thin
+    /// transmission's colour times the diffuse weight), by material index; empty when no
+    /// material is translucent (`docs/SUBSURFACE.md`, `super::subsurface`). Translucent
+    /// texels' `albedo` holds only what their surface reflects
+    /// ([`Translucency::reflected_albedo`]).
+    pub translucency: Vec<Translucency>,
     pub texel_size: f32,
     pub warnings: Vec<String>,
 }
@@ -248,6 +254,24 @@ impl BakeScene {
             .iter()
             .map(|f| baked[f.material as usize].model)
             .collect();
+        let translucency = vlf_translucency(scene, xf.scale);
+        if !translucency.is_empty() {
+            for f in &faces {
+                let model = translucency[f.material as usize];
+                if !model.is_translucent() {
+                    continue;
+                }
+                let n = f.texels_per_side() as usize;
+                for side in 0..2 {
+                    for k in
+                        f.texel_base as usize + side * n..f.texel_base as usize + (side + 1) * n
+                    {
+                        let a = Vec4::from(albedo[k]).truncate();
+                        albedo[k] = model.reflected_albedo(a, side).extend(0.0).into();
+                    }
+                }
+            }
+        }
         let suns = scene
             .suns
             .iter()
@@ -270,6 +294,7 @@ impl BakeScene {
                 .map(|l| DeltaLight::punctual(l, &xf))
                 .filter(|l| l.intensity.max_element() > 0.0 && l.intensity.is_finite())
                 .collect(),
+            translucency,
             texel_size,
             warnings,
         })
@@ -499,4 +524,32 @@ mod tests {
         }
         assert!((sum - whole).abs() < 1e-5 * whole, "{sum} vs {whole}");
     }
+}
+
+/// Every material's subsurface model in VLF units (`scale` VLF units per scene unit), a thin
+/// transmission's colour times the material's diffuse weight; empty when none is translucent.
+fn vlf_translucency(scene: &Scene, scale: f32) -> Vec<Translucency> {
+    if !scene.has_translucency() {
+        return Vec::new();
+    }
+    (0..scene.materials.len() as u32)
+        .map(|m| match scene.translucency_of(m) {
+            Translucency::ThinDiffuseTransmission { factor, color } => {
+                Translucency::ThinDiffuseTransmission {
+                    factor,
+                    color: color * factor * scene.materials[m as usize].diffuse_weight(),
+                }
+            }
+            Translucency::Dipole {
+                sigma_s_prime,
+                sigma_a,
+                eta,
+            } => Translucency::Dipole {
+                sigma_s_prime: sigma_s_prime / scale,
+                sigma_a: sigma_a / scale,
+                eta,
+            },
+            Translucency::None => Translucency::None,
+        })
+        .collect()
 }

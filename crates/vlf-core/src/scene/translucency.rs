@@ -38,6 +38,22 @@ impl Translucency {
         !matches!(self, Translucency::None)
     }
 
+    /// What a texel side of this material reflects of its irradiance, given the material's
+    /// Lambertian albedo `albedo` (`side` 0 = front): all of it for opaque materials,
+    /// `(1 − factor) × albedo` with thin transmission (the rest of the diffuse part is
+    /// transmitted), and the boundary's diffuse Fresnel reflectance F_dr,ext(η) on either side
+    /// of a dipole surface (the front's remainder enters the medium; the back, inside a closed
+    /// object, is absorbed: `docs/SUBSURFACE.md`).
+    pub fn reflected_albedo(&self, albedo: Vec3, _side: usize) -> Vec3 {
+        match *self {
+            Translucency::None => albedo,
+            Translucency::ThinDiffuseTransmission { factor, .. } => albedo * (1.0 - factor),
+            Translucency::Dipole { eta, .. } => {
+                Vec3::splat(super::dipole::fresnel_diffuse_external(f64::from(eta)) as f32)
+            }
+        }
+    }
+
     /// A short name for reports: `none`, `thin-diffuse-transmission` or `dipole`.
     pub fn name(&self) -> &'static str {
         match self {

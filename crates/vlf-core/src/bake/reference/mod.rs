@@ -56,6 +56,7 @@ pub use transport::{SplitMix64, TransportDir, all_directions, transport_directio
 use glam::{Vec3, Vec4};
 
 use crate::bake::BakeScene;
+use crate::bake::subsurface::{LinkParams, Subsurface};
 use crate::directions::DirectionSet;
 use crate::lightfield::{BakeParams, TileIndex};
 use crate::psf::PsfGrid;
@@ -210,7 +211,11 @@ pub fn propagate_with(
     let spec = SpecularSetup::new(scene, set, &grid, &dirs);
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
-    let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some()));
+    // Translucent materials (`docs/SUBSURFACE.md`): their links, built once; none otherwise.
+    let sss = Subsurface::new(scene, &LinkParams::default(), threads);
+    // Over-relaxation's bound is the largest albedo, which the light crossing translucent
+    // surfaces is not in: plain shooting for them.
+    let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some() || sss.is_some()));
     let punctual = crate::bake::punctual::injected_irradiance(scene, threads);
     let mut next = vec![[0f32; 4]; n_tex];
     let mut irradiance = vec![[0f32; 4]; n_tex];
@@ -263,6 +268,7 @@ pub fn propagate_with(
                 });
             },
         );
+        let before = sss.as_ref().map(|s| s.snapshot(&irradiance));
         let mut e = finish_iteration(
             scene,
             &tex_face,
@@ -274,6 +280,14 @@ pub fn propagate_with(
             &mut next,
             &mut irradiance,
         );
+        if let (Some(s), Some(b)) = (&sss, &before) {
+            // Light leaving translucent surfaces elsewhere than it arrived: unshot, no longer
+            // absorbed.
+            let moved = s.apply(scene, b, &irradiance, &mut next);
+            e.next += moved;
+            e.absorbed -= moved;
+            e.magnitude = e.next;
+        }
         if let Some(s) = &spec {
             e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
             e.absorbed += take_tile_loss(&s.index, &mut next_tiles, set, &grid);
