@@ -212,3 +212,194 @@ fn marble_beam_profile() {
     );
     assert!(checked > 150, "{checked}");
 }
+
+/// Power per channel received (Σ E·A) by `side` of the faces `faces` over a propagation.
+fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) -> glam::DVec3 {
+    let mut p = glam::DVec3::ZERO;
+    for &f in faces {
+        let face = prep.faces[f];
+        let n = face.texels_per_side() as usize;
+        let s = face.texel_base as usize + side * n;
+        for t in s..s + n {
+            p += Vec4::from(irr[t]).truncate().as_dvec3() * f64::from(prep.texel_area[t]);
+        }
+    }
+    p
+}
+
+/// A black lamp (a glowing cube) inside a closed shade that transmits diffusely and reflects
+/// nothing (diffuseTransmissionFactor 1, colour C), in a black room: the room receives exactly
+/// the shade's transmittance C times the lamp's power, and nothing comes back. The issue's
+/// bound, 2 % of the energy per channel, against the lamp's emitted power and against what the
+/// shade's inside received; and the propagation's energy bookkeeping balances.
+#[test]
+fn lamp_in_diffuse_transmitting_shade() {
+    use vlf_core::bake::reference;
+    use vlf_core::directions::DirectionSet;
+    use vlf_core::lightfield::{BakeParams, Iterations};
+    let c = Vec3::new(0.9, 0.6, 0.3);
+    let mut b = SceneBuilder::new();
+    let room = b.diffuse("room", Vec3::ZERO, Vec3::ZERO);
+    let shade = b.diffuse("shade", Vec3::splat(0.8), Vec3::ZERO);
+    b.translucent(
+        shade,
+        Translucency::ThinDiffuseTransmission {
+            factor: 1.0,
+            color: c,
+        },
+    );
+    let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(2.0));
+    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
+    b.aabox(Vec3::splat(-0.4), Vec3::splat(0.4), false, shade);
+    b.aabox(Vec3::splat(-0.25), Vec3::splat(0.25), false, lamp);
+    let scene = b.build("lamp in shade");
+    let params = BakeParams {
+        directions: 126,
+        resolution: 64,
+        tile: 8,
+        iterations: Iterations::Converge {
+            threshold: 1e-4,
+            max: 20,
+        },
+        ..BakeParams::paper()
+    };
+    let prep = BakeScene::new(&scene, &params).unwrap();
+    let set = DirectionSet::at_least(params.directions).unwrap();
+    let out = reference::propagate(&prep, &set, &params);
+    let of = |m: u32| -> Vec<usize> {
+        (0..scene.faces.len())
+            .filter(|&f| scene.faces[f].material == m)
+            .collect()
+    };
+    let emitted = prep.emitted_power().as_dvec3();
+    let room_got = received(&prep, &out.irradiance, &of(room), 0);
+    let shade_in = received(&prep, &out.irradiance, &of(shade), 1);
+    let shade_out = received(&prep, &out.irradiance, &of(shade), 0);
+    eprintln!(
+        "iterations {}, emitted {emitted:.5?}, shade inside {shade_in:.5?}, room {room_got:.5?}, shade outside {shade_out:?}, imbalance {:.3e}",
+        out.iterations,
+        out.energy.relative_imbalance()
+    );
+    for k in 0..3 {
+        let want = f64::from(c[k]) * emitted[k];
+        let err = room_got[k] / want - 1.0;
+        eprintln!(
+            "channel {k}: room / (C × emitted) − 1 = {:+.3} %, room / (C × shade inside) − 1 = {:+.3} %",
+            100.0 * err,
+            100.0 * (room_got[k] / (f64::from(c[k]) * shade_in[k]) - 1.0)
+        );
+        assert!(
+            err.abs() < 0.02,
+            "channel {k}: room {} vs {want}",
+            room_got[k]
+        );
+    }
+    // Nothing comes back from a black room onto the shade.
+    assert!(shade_out.max_element() < 1e-9 * emitted.max_element());
+    assert!(out.energy.relative_imbalance().abs() < 0.02);
+}
+
+/// A marble cube lit by a lamp in a grey room, baked twice: translucent, and as an opaque
+/// diffuse cube. The energy bookkeeping with the scattered light (moved from absorbed to
+/// unshot each iteration) balances as well as the opaque bake's does (whose imbalance, about
+/// −1.8 % at 32² rays and 46 directions, is the propagation's own aliasing: the transport adds
+/// none), and the cube sends on more than its surface alone reflects (F_dr,ext E).
+#[test]
+fn marble_cube_in_room_balances_energy() {
+    use vlf_core::bake::reference;
+    use vlf_core::directions::DirectionSet;
+    use vlf_core::lightfield::{BakeParams, Iterations};
+    let bake = |translucent: bool| {
+        let mut b = SceneBuilder::new();
+        let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
+        let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
+        let cube = b.diffuse("marble", Vec3::splat(0.8), Vec3::ZERO);
+        if translucent {
+            b.translucent(cube, marble());
+        }
+        b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
+        b.quad(
+            [
+                Vec3::new(-0.2, 0.99, -0.2),
+                Vec3::new(0.2, 0.99, -0.2),
+                Vec3::new(0.2, 0.99, 0.2),
+                Vec3::new(-0.2, 0.99, 0.2),
+            ],
+            lamp,
+        );
+        b.aabox(
+            Vec3::new(-0.3, -0.9, -0.3),
+            Vec3::new(0.3, -0.3, 0.3),
+            false,
+            cube,
+        );
+        let scene = b.build("marble cube");
+        let params = BakeParams {
+            directions: 46,
+            resolution: 32,
+            tile: 8,
+            iterations: Iterations::Converge {
+                threshold: 1e-3,
+                max: 40,
+            },
+            ..BakeParams::paper()
+        };
+        let prep = BakeScene::new(&scene, &params).unwrap();
+        let set = DirectionSet::at_least(params.directions).unwrap();
+        let out = reference::propagate(&prep, &set, &params);
+        let e = &out.energy;
+        eprintln!(
+            "translucent {translucent}: iterations {}, emitted {:.4}, absorbed {:.4}, escaped {:.4}, unshot {:.2e}, imbalance {:.3e}",
+            out.iterations,
+            e.emitted,
+            e.absorbed,
+            e.escaped,
+            e.unshot,
+            e.relative_imbalance()
+        );
+        (prep, out)
+    };
+    let (_, opaque) = bake(false);
+    let (prep, out) = bake(true);
+    let (a, b) = (
+        out.energy.relative_imbalance(),
+        opaque.energy.relative_imbalance(),
+    );
+    assert!((a - b).abs() < 0.005, "imbalance {a} vs opaque {b}");
+    let sss = Subsurface::new(&prep, &LinkParams::default(), 0).unwrap();
+    assert_eq!(sss.stats().dipole_objects, 1);
+    // The scattered light: with the marble's R_d,total ≈ 0.8, the cube returns far more than
+    // the 9 % its surface reflects, and at most (F + (1 − F)·R_d,total) E, what an infinite
+    // slab would return (light reaching the cube's edges from inside is partly lost).
+    let sss_out = sss.exitance(&prep, |t| Vec4::from(out.irradiance[t as usize]).truncate());
+    let (mut m, mut ein) = (Vec3::ZERO, Vec3::ZERO);
+    for (t, x) in sss_out {
+        let a = prep.texel_area[t as usize];
+        m += x * a;
+        ein += Vec4::from(out.irradiance[t as usize]).truncate() * a;
+    }
+    let f = sss.objects[0].fresnel;
+    let ratio = m / ein + Vec3::splat(f);
+    eprintln!("cube: exitance / irradiance = {ratio:?}");
+    let total = marble_mm().map(|d| d.total_reflectance() as f32);
+    for c in 0..3 {
+        let ideal = f + (1.0 - f) * total[c];
+        assert!(
+            ratio[c] > 0.5 && ratio[c] <= ideal * 1.001,
+            "{c}: {} vs {ideal}",
+            ratio[c]
+        );
+    }
+}
+
+/// Scenes without translucent materials build nothing.
+#[test]
+fn opaque_scenes_build_no_links() {
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
+    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, m);
+    let scene = b.build("grey box");
+    let prep = BakeScene::with_texel_size(&scene, 0.05).unwrap();
+    assert!(prep.translucency.is_empty());
+    assert!(Subsurface::new(&prep, &LinkParams::default(), 0).is_none());
+}
