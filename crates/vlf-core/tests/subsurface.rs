@@ -230,8 +230,9 @@ fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) ->
 /// A black lamp (a glowing cube) inside a closed shade that transmits diffusely and reflects
 /// nothing (diffuseTransmissionFactor 1, colour C), in a black room: the room receives exactly
 /// the shade's transmittance C times the lamp's power, and nothing comes back. The issue's
-/// bound, 2 % of the energy per channel, against the lamp's emitted power and against what the
-/// shade's inside received; and the propagation's energy bookkeeping balances.
+/// bound, 2 % of the energy per channel, against the lamp's emitted power; what the shade shows
+/// outside (albedo × its effective irradiance, as the renderer reads it) is what the room
+/// received; and the propagation's energy bookkeeping balances.
 #[test]
 fn lamp_in_diffuse_transmitting_shade() {
     use vlf_core::bake::reference;
@@ -273,20 +274,43 @@ fn lamp_in_diffuse_transmitting_shade() {
     };
     let emitted = prep.emitted_power().as_dvec3();
     let room_got = received(&prep, &out.irradiance, &of(room), 0);
-    let shade_in = received(&prep, &out.irradiance, &of(shade), 1);
-    let shade_out = received(&prep, &out.irradiance, &of(shade), 0);
+    // The shade's texels hold their effective irradiance: × the albedo, their exitance.
+    let shown = |side: usize| {
+        let mut p = glam::DVec3::ZERO;
+        for f in of(shade) {
+            let face = prep.faces[f];
+            let n = face.texels_per_side() as usize;
+            let s = face.texel_base as usize + side * n;
+            for t in s..s + n {
+                p += (Vec4::from(out.irradiance[t]) * Vec4::from(prep.albedo[t]))
+                    .truncate()
+                    .as_dvec3()
+                    * f64::from(prep.texel_area[t]);
+            }
+        }
+        p
+    };
+    let (shade_out, shade_in) = (shown(0), shown(1));
     eprintln!(
-        "iterations {}, emitted {emitted:.5?}, shade inside {shade_in:.5?}, room {room_got:.5?}, shade outside {shade_out:?}, imbalance {:.3e}",
+        "iterations {}, emitted {emitted:.5?}, room {room_got:.5?}, shade's exitance outside {shade_out:.5?}, inside {shade_in:?}, imbalance {:.3e}",
         out.iterations,
         out.energy.relative_imbalance()
     );
     for k in 0..3 {
         let want = f64::from(c[k]) * emitted[k];
         let err = room_got[k] / want - 1.0;
+        let shown = shade_out[k] / room_got[k] - 1.0;
         eprintln!(
-            "channel {k}: room / (C × emitted) − 1 = {:+.3} %, room / (C × shade inside) − 1 = {:+.3} %",
+            "channel {k}: room / (C × emitted) − 1 = {:+.3} %, shade's exitance / room − 1 = {:+.3} %",
             100.0 * err,
-            100.0 * (room_got[k] / (f64::from(c[k]) * shade_in[k]) - 1.0)
+            100.0 * shown
+        );
+        // What the shade shows outside (its effective irradiance × albedo) is what reached the
+        // room (black: it absorbs all of it).
+        assert!(
+            shown.abs() < 0.02,
+            "channel {k}: shade shows {}",
+            shade_out[k]
         );
         assert!(
             err.abs() < 0.02,
@@ -294,8 +318,8 @@ fn lamp_in_diffuse_transmitting_shade() {
             room_got[k]
         );
     }
-    // Nothing comes back from a black room onto the shade.
-    assert!(shade_out.max_element() < 1e-9 * emitted.max_element());
+    // The inside reflects nothing (factor 1) and nothing comes back from the black room.
+    assert!(shade_in.max_element() < 1e-9 * emitted.max_element());
     assert!(out.energy.relative_imbalance().abs() < 0.02);
 }
 
@@ -368,26 +392,31 @@ fn marble_cube_in_room_balances_energy() {
     assert!((a - b).abs() < 0.005, "imbalance {a} vs opaque {b}");
     let sss = Subsurface::new(&prep, &LinkParams::default(), 0).unwrap();
     assert_eq!(sss.stats().dipole_objects, 1);
-    // The scattered light: with the marble's R_d,total ≈ 0.8, the cube returns far more than
-    // the 9 % its surface reflects, and at most (F + (1 − F)·R_d,total) E, what an infinite
-    // slab would return (light reaching the cube's edges from inside is partly lost).
-    let sss_out = sss.exitance(&prep, |t| Vec4::from(out.irradiance[t as usize]).truncate());
-    let (mut m, mut ein) = (Vec3::ZERO, Vec3::ZERO);
-    for (t, x) in sss_out {
-        let a = prep.texel_area[t as usize];
-        m += x * a;
-        ein += Vec4::from(out.irradiance[t as usize]).truncate() * a;
-    }
-    let f = sss.objects[0].fresnel;
-    let ratio = m / ein + Vec3::splat(f);
-    eprintln!("cube: exitance / irradiance = {ratio:?}");
-    let total = marble_mm().map(|d| d.total_reflectance() as f32);
+    // What the cube's top sends out, ρ × its effective irradiance (as the renderer reads it),
+    // against the opaque cube of albedo 0.8 under the same light: the marble's surface reflects
+    // F_dr,ext ≈ 0.09 of what arrives and R_d,total ≈ 0.8 of the rest comes back out, less what
+    // reaches the cube's edges from inside: an effective reflectance between 0.5 and 0.85.
+    let top = prep
+        .faces
+        .iter()
+        .position(|f| f.material == 2 && f.normal[1] > 0.99)
+        .unwrap();
+    let f = prep.faces[top];
+    let shown = |irr: &[[f32; 4]]| {
+        let mut s = Vec3::ZERO;
+        for t in f.texel_base..f.texel_base + f.texels_per_side() {
+            let t = t as usize;
+            s += (Vec4::from(irr[t]) * Vec4::from(prep.albedo[t])).truncate() * prep.texel_area[t];
+        }
+        s
+    };
+    let (marble_out, opaque_out) = (shown(&out.irradiance), shown(&opaque.irradiance));
     for c in 0..3 {
-        let ideal = f + (1.0 - f) * total[c];
+        let ratio = marble_out[c] / opaque_out[c] * 0.8;
+        eprintln!("channel {c}: the marble top's effective reflectance {ratio:.4}");
         assert!(
-            ratio[c] > 0.5 && ratio[c] <= ideal * 1.001,
-            "{c}: {} vs {ideal}",
-            ratio[c]
+            ratio > 0.5 && ratio < 0.85,
+            "channel {c}: effective reflectance {ratio}"
         );
     }
 }

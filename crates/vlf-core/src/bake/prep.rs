@@ -63,9 +63,8 @@ pub struct BakeScene {
     pub lights: Vec<DeltaLight>,
     /// Each material's subsurface model in VLF units (coefficients per VLF unit; a thin
     /// transmission's colour times the diffuse weight), by material index; empty when no
-    /// material is translucent (`docs/SUBSURFACE.md`, `super::subsurface`). Translucent
-    /// texels' `albedo` holds only what their surface reflects
-    /// ([`Translucency::reflected_albedo`]).
+    /// material is translucent (`docs/SUBSURFACE.md`, `super::subsurface`, which replaces what
+    /// translucent texels send on).
     pub translucency: Vec<Translucency>,
     pub texel_size: f32,
     pub warnings: Vec<String>,
@@ -255,23 +254,6 @@ impl BakeScene {
             .map(|f| baked[f.material as usize].model)
             .collect();
         let translucency = vlf_translucency(scene, xf.scale);
-        if !translucency.is_empty() {
-            for f in &faces {
-                let model = translucency[f.material as usize];
-                if !model.is_translucent() {
-                    continue;
-                }
-                let n = f.texels_per_side() as usize;
-                for side in 0..2 {
-                    for k in
-                        f.texel_base as usize + side * n..f.texel_base as usize + (side + 1) * n
-                    {
-                        let a = Vec4::from(albedo[k]).truncate();
-                        albedo[k] = model.reflected_albedo(a, side).extend(0.0).into();
-                    }
-                }
-            }
-        }
         let suns = scene
             .suns
             .iter()

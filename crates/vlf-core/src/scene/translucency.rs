@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 /// How light crosses a material's surface (`docs/SUBSURFACE.md`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "model")]
+#[serde(tag = "model", rename_all = "snake_case")]
 pub enum Translucency {
     /// Opaque: the material's reflection model alone.
     #[default]

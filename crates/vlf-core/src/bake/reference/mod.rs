@@ -71,7 +71,9 @@ pub struct Propagated {
     /// Total irradiance per texel (rgb, a = 0), all iterations: what arrived at each texel side
     /// from surfaces, sky, suns, point and spot lights. The light field stores it (the renderer applies albedo and
     /// emission per pixel); the final gather reads the converged field through it. The
-    /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it.
+    /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it. Translucent texels
+    /// hold their effective irradiance instead, their exitance over their albedo
+    /// (`docs/SUBSURFACE.md`), so that the same product gives their light.
     pub irradiance: Vec<[f32; 4]>,
     /// The irradiance of the first iteration alone (light straight from emitters, sky, suns,
     /// point and spot lights), where the propagation kept it: the final gather replaces it by its own direct
@@ -281,8 +283,8 @@ pub fn propagate_with(
             &mut irradiance,
         );
         if let (Some(s), Some(b)) = (&sss, &before) {
-            // Light leaving translucent surfaces elsewhere than it arrived: unshot, no longer
-            // absorbed.
+            // Translucent texels send on their exitance (transmitted and scattered light
+            // included) instead of ρE: the difference leaves `absorbed` for the unshot.
             let moved = s.apply(scene, b, &irradiance, &mut next);
             e.next += moved;
             e.absorbed -= moved;
@@ -315,6 +317,14 @@ pub fn propagate_with(
         iterations = it + 1;
         if energy.converged(threshold) {
             break;
+        }
+    }
+    // Translucent texels keep the effective irradiance (their exitance over their albedo), what
+    // every reader multiplies by the albedo (`Subsurface::effective`).
+    if let Some(s) = &sss {
+        s.effective(scene, &mut irradiance);
+        if let Some(fb) = first_bounce.as_mut() {
+            s.effective(scene, fb);
         }
     }
     Propagated {

@@ -4,15 +4,19 @@
 //!
 //! * **Dipole** objects (faces of one [`Translucency::Dipole`] material connected through shared
 //!   vertices): the flux entering each outside (side-0) texel, (1 − F_dr,ext) E A, is scattered
-//!   through the object's hierarchical links ([`links`], factors from [`kernel`]); the surface's
-//!   own Fresnel reflection F_dr,ext E is the texels' albedo in [`BakeScene`].
-//! * **Thin diffuse transmission**: each side of a texel sends on τ = factor × colour × diffuse
-//!   weight of the irradiance on its other side.
+//!   through the object's hierarchical links ([`links`], factors from [`kernel`]); the surface
+//!   itself reflects F_dr,ext E.
+//! * **Thin diffuse transmission**: each side of a texel reflects (1 − t) ρ of its own
+//!   irradiance and sends on τ = t × colour × diffuse weight of the irradiance on its other side.
 //!
-//! [`Subsurface::exitance`] is the whole transport (what every translucent texel emits besides
-//! its reflection, from the irradiance of every texel); the propagation adds it to its next
-//! unshot radiance ([`Subsurface::apply`]). Nothing is built for scenes without translucent
-//! materials ([`Subsurface::new`] returns `None`).
+//! [`Subsurface::exitance`] is the transport (what every translucent texel emits besides its
+//! surface reflection, from the irradiance of every texel). The propagation replaces the
+//! translucent texels' next unshot radiance, which `finish_iteration` made ρE/π, by their
+//! exitance over π ([`Subsurface::apply`]); at its end their irradiance becomes the *effective*
+//! irradiance E_eff = M/ρ ([`Subsurface::effective`]), the value whose product with the albedo
+//! the renderer, the final gather's field and `BakeScene::outgoing_radiance` take, so they all
+//! read the translucent surfaces' true exitance M. Nothing is built for scenes without
+//! translucent materials ([`Subsurface::new`] returns `None`).
 
 pub mod kernel;
 pub mod links;
@@ -58,8 +62,9 @@ pub struct Subsurface {
     pub objects: Vec<DipoleObject>,
     /// (side-0 texel, texels per side, τ) of every covered texel with thin transmission.
     thin: Vec<(u32, u32, Vec3)>,
-    /// Every texel whose irradiance the transport reads (sorted).
+    /// Every translucent texel (both sides, covered; sorted) and what its surface reflects.
     texels: Vec<u32>,
+    reflect: Vec<Vec3>,
 }
 
 impl Subsurface {
@@ -80,14 +85,12 @@ impl Subsurface {
             return None;
         }
         let mut thin = Vec::new();
-        let mut texels = Vec::new();
         for f in &prep.faces {
             if let Translucency::ThinDiffuseTransmission { color, .. } = model(f.material) {
                 let n = f.texels_per_side();
                 for t in f.texel_base..f.texel_base + n {
                     if prep.texel_area[t as usize] > 0.0 {
                         thin.push((t, n, color));
-                        texels.extend([t, t + n]);
                     }
                 }
             }
@@ -119,7 +122,6 @@ impl Subsurface {
                     }
                 }
             }
-            texels.extend(&tex);
             let tree = ObjectTree::new(prep, &tex, &tex_face, dipole, *params);
             let built = crate::par::map(tree.len(), threads, 64, |i| tree.links_for(prep, i));
             let mut link_start = Vec::with_capacity(tree.len() + 1);
@@ -140,12 +142,37 @@ impl Subsurface {
                 dropped,
             });
         }
+        // Both sides of every translucent face, with what their surfaces reflect.
+        let mut texels = Vec::new();
+        for f in &prep.faces {
+            let model = model(f.material);
+            if !model.is_translucent() {
+                continue;
+            }
+            let n = f.texels_per_side();
+            for side in 0..2u32 {
+                for t in f.texel_base + side * n..f.texel_base + (side + 1) * n {
+                    if prep.texel_area[t as usize] > 0.0 {
+                        texels.push(t);
+                    }
+                }
+            }
+        }
         texels.sort_unstable();
-        texels.dedup();
+        let reflect = texels
+            .iter()
+            .map(|&t| {
+                let f = &prep.faces[face_of(prep, t)];
+                let side = ((t - f.texel_base) / f.texels_per_side()) as usize;
+                let rho = Vec4::from(prep.albedo[t as usize]).truncate();
+                model(f.material).reflected_albedo(rho, side)
+            })
+            .collect();
         let s = Subsurface {
             objects,
             thin,
             texels,
+            reflect,
         };
         let st = s.stats();
         log::info!(
@@ -208,7 +235,7 @@ impl Subsurface {
         out
     }
 
-    /// Every texel whose irradiance [`Subsurface::exitance`] reads.
+    /// Every translucent texel (both sides of their faces, covered), sorted.
     pub fn texels(&self) -> &[u32] {
         &self.texels
     }
@@ -222,11 +249,27 @@ impl Subsurface {
             .collect()
     }
 
-    /// Adds the translucent texels' exitance from this iteration's irradiance (`irradiance` now
-    /// minus `before`, a [`Subsurface::snapshot`] taken before the iteration added to it) to
-    /// their next unshot radiance (exitance/π); returns the power it moved (Σ exitance × area
-    /// over texels and channels), which the caller takes from the absorbed power and adds to the
-    /// unshot.
+    /// Every translucent texel's whole exitance M (surface reflection + transmitted or
+    /// scattered light) from the irradiance `irr(t)` of every texel, in texel order.
+    pub fn total_exitance(&self, prep: &BakeScene, irr: impl Fn(u32) -> Vec3) -> Vec<Vec3> {
+        let mut m: Vec<Vec3> = self
+            .texels
+            .iter()
+            .zip(&self.reflect)
+            .map(|(&t, r)| *r * irr(t))
+            .collect();
+        for (t, x) in self.exitance(prep, &irr) {
+            let k = self.texels.binary_search(&t).expect("translucent texel");
+            m[k] += x;
+        }
+        m
+    }
+
+    /// Replaces the translucent texels' next unshot radiance, which `finish_iteration` made
+    /// ρE/π from this iteration's irradiance (`irradiance` now minus `before`, a
+    /// [`Subsurface::snapshot`] taken before the iteration added to it), by their exitance
+    /// M/π; returns the power this adds to what is sent on (Σ (M − ρE) × area over texels and
+    /// channels, signed), which the caller moves from the absorbed power to the unshot.
     pub fn apply(
         &self,
         prep: &BakeScene,
@@ -238,15 +281,43 @@ impl Subsurface {
             let k = self.texels.binary_search(&t).expect("translucent texel");
             (Vec4::from(irradiance[t as usize]) - Vec4::from(before[k])).truncate()
         };
+        let m = self.total_exitance(prep, this);
         let mut power = 0f64;
-        for (t, m) in self.exitance(prep, this) {
+        for (&t, m) in self.texels.iter().zip(m) {
             let t = t as usize;
-            next[t] = (Vec4::from(next[t]) + (m / std::f32::consts::PI).extend(0.0)).into();
+            let old = Vec4::from(next[t]).truncate() * std::f32::consts::PI;
+            next[t] = (m / std::f32::consts::PI).extend(0.0).into();
+            let d = m - old;
             power +=
-                (f64::from(m.x) + f64::from(m.y) + f64::from(m.z)) * f64::from(prep.texel_area[t]);
+                (f64::from(d.x) + f64::from(d.y) + f64::from(d.z)) * f64::from(prep.texel_area[t]);
         }
         power
     }
+
+    /// Turns the translucent texels' irradiance E into the effective irradiance E_eff = M/ρ
+    /// (per channel; 0 where the albedo ρ is 0, which cannot show the light), M their whole
+    /// exitance from E ([`Subsurface::total_exitance`]): what the renderer, the final gather's
+    /// field and [`BakeScene::outgoing_radiance`] multiply by ρ/π. The transport is linear, so
+    /// this holds for a sum of iterations as for each.
+    pub fn effective(&self, prep: &BakeScene, irradiance: &mut [[f32; 4]]) {
+        let m = self.total_exitance(prep, |t| Vec4::from(irradiance[t as usize]).truncate());
+        for (&t, m) in self.texels.iter().zip(m) {
+            let rho = Vec4::from(prep.albedo[t as usize]).truncate();
+            let e = Vec3::select(
+                rho.cmpgt(Vec3::ZERO),
+                m / rho.max(Vec3::splat(1e-30)),
+                Vec3::ZERO,
+            );
+            irradiance[t as usize] = e.extend(0.0).into();
+        }
+    }
+}
+
+/// The face of atlas texel `t`.
+fn face_of(prep: &BakeScene, t: u32) -> usize {
+    prep.faces
+        .partition_point(|f| f.texel_base <= t)
+        .saturating_sub(1)
 }
 
 /// The dipole objects of `prep`: (material, faces) for every set of faces with one
