@@ -8,7 +8,8 @@
 //!   z_r = 1/σ_t′, costs nothing however large the texel): k = (1/h⁴) ∫ r R_d(r) Θ(r) dr with
 //!   Θ(r) = ∫ T(r e_θ − Δ) dθ, radially by Gauss–Legendre on intervals split at every radius
 //!   where Θ has a kink and refined geometrically towards r = 0 on the scale of z_r.
-//! * Near texels of different faces: 4 × 4 Gauss points on each square ([`pair_gauss`]).
+//! * Near texels of different faces: 4 × 4 Gauss points on each square within 3 texel sizes,
+//!   2 × 2 farther ([`pair_gauss`]).
 //! * Far texels and clusters: R_d at the distance (the receiver's point to the source's
 //!   centroid).
 
@@ -34,6 +35,12 @@ const GL8: [(f64, f64); 8] = [
     (0.525_532_409_916_329, 0.313_706_645_877_887_3),
     (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
     (0.960_289_856_497_536_2, 0.101_228_536_290_376_26),
+];
+
+/// Gauss–Legendre nodes and weights on [−1, 1], 2 points.
+const GL2: [(f64, f64); 2] = [
+    (-0.577_350_269_189_625_8, 1.0),
+    (0.577_350_269_189_625_8, 1.0),
 ];
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 4 points.
@@ -162,12 +169,14 @@ pub struct Square {
     pub v: Vec3,
 }
 
-/// k between two squares by 4 × 4 Gauss points on each (near texels of different faces).
-pub fn pair_gauss(d: &Dipole3, a: &Square, b: &Square) -> [f64; 3] {
+/// k between two squares by Gauss points on each (near texels of different faces): 4 × 4
+/// when `fine`, else 2 × 2.
+pub fn pair_gauss(d: &Dipole3, a: &Square, b: &Square, fine: bool) -> [f64; 3] {
+    let rule: &[(f64, f64)] = if fine { &GL4 } else { &GL2 };
     let pts = |s: &Square| {
-        let mut out = Vec::with_capacity(16);
-        for (x, wx) in GL4 {
-            for (y, wy) in GL4 {
+        let mut out = Vec::with_capacity(rule.len() * rule.len());
+        for &(x, wx) in rule {
+            for &(y, wy) in rule {
                 out.push((s.center + s.u * x as f32 + s.v * y as f32, 0.25 * wx * wy));
             }
         }

@@ -297,6 +297,7 @@ impl ObjectTree {
                             d3,
                             &self.square(prep, &r),
                             &self.square(prep, &s),
+                            dist < 3.0 * h,
                         ))
                     } else {
                         to32(kernel::profile3(d3, dist))
