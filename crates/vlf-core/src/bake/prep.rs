@@ -486,28 +486,6 @@ fn uv_at(q: &[Vec2; 3], uv: &[Vec2; 3], c: Vec2) -> Vec2 {
     uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn clipping_partitions_a_triangle_exactly() {
-        let q = [
-            Vec2::new(0.3, 0.2),
-            Vec2::new(4.7, 1.1),
-            Vec2::new(1.9, 3.6),
-        ];
-        let (whole, _) = polygon_area_centroid(&q);
-        let mut sum = 0.0;
-        for y in 0..4 {
-            for x in 0..5 {
-                sum += polygon_area_centroid(&clip_to_square(&q, x as f32, y as f32)).0;
-            }
-        }
-        assert!((sum - whole).abs() < 1e-5 * whole, "{sum} vs {whole}");
-    }
-}
-
 /// Every material's subsurface model in VLF units (`scale` VLF units per scene unit), a thin
 /// transmission's colour times the material's diffuse weight; empty when none is translucent.
 fn vlf_translucency(scene: &Scene, scale: f32) -> Vec<Translucency> {
@@ -534,4 +512,26 @@ fn vlf_translucency(scene: &Scene, scale: f32) -> Vec<Translucency> {
             Translucency::None => Translucency::None,
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipping_partitions_a_triangle_exactly() {
+        let q = [
+            Vec2::new(0.3, 0.2),
+            Vec2::new(4.7, 1.1),
+            Vec2::new(1.9, 3.6),
+        ];
+        let (whole, _) = polygon_area_centroid(&q);
+        let mut sum = 0.0;
+        for y in 0..4 {
+            for x in 0..5 {
+                sum += polygon_area_centroid(&clip_to_square(&q, x as f32, y as f32)).0;
+            }
+        }
+        assert!((sum - whole).abs() < 1e-5 * whole, "{sum} vs {whole}");
+    }
 }
