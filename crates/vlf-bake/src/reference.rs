@@ -96,7 +96,13 @@ pub fn reference_command(
             (camera, format!("camera {index}"))
         }
     };
-    let tracer = crate::open_device(device)?;
+    // The GPU path tracer has no random walk or diffuse transmission yet (docs/SUBSURFACE.md):
+    // scenes with translucent materials are traced on the CPU.
+    let tracer = if scene.has_translucency() {
+        Compute::Cpu("translucent materials: the GPU path tracer has no random walk yet".into())
+    } else {
+        crate::open_device(device)?
+    };
     let prep = PreparedScene::new(&scene);
     let total = u64::from(width) * u64::from(height) * u64::from(args.spp);
     let show = !quiet && !args.json;

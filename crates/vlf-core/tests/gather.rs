@@ -616,6 +616,7 @@ fn points_above_touching_boxes_are_closed() {
     let open = vlf_core::gather::Openness {
         bvh: &ps.bvh,
         r_close: 0.05,
+        see_through: Vec::new(),
     };
     let mut closed = 0;
     for i in -20..=20 {

@@ -612,6 +612,14 @@ impl Grid {
             open: Openness {
                 bvh,
                 r_close: self.r_close(scene),
+                see_through: (0..scene.materials.len() as u32)
+                    .map(|m| {
+                        matches!(
+                            scene.translucency_of(m),
+                            crate::scene::Translucency::ThinDiffuseTransmission { .. }
+                        )
+                    })
+                    .collect(),
             },
             xf: scene.to_vlf,
             tex_face: &self.tex_face,

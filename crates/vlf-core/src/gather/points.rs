@@ -25,6 +25,10 @@ pub struct Openness<'a> {
     pub bvh: &'a Bvh,
     /// Probes along the normal that hit anything closer than this close the point (world).
     pub r_close: f32,
+    /// By material index (empty: none): surfaces that light crosses (thin diffuse
+    /// transmission, `docs/SUBSURFACE.md`), whose back faces do not close a solid: the inside of
+    /// a paper lantern is lit through its walls.
+    pub see_through: Vec<bool>,
 }
 
 impl Openness<'_> {
@@ -45,8 +49,10 @@ impl Openness<'_> {
         for d in [n, tilt(t), tilt(-t * 0.5 + b * 0.866_025_4)] {
             let hit = self.bvh.closest_hit(&Ray::new(origin, d, f32::INFINITY));
             let front = !hit.is_hit() || {
-                let [a, b, c] = self.bvh.triangles[hit.tri as usize].corners();
+                let tri = &self.bvh.triangles[hit.tri as usize];
+                let [a, b, c] = tri.corners();
                 (b - a).cross(c - a).dot(d) <= 0.0
+                    || self.see_through.get(tri.material as usize) == Some(&true)
             };
             if front {
                 open += 1;

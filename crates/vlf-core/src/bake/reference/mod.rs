@@ -320,12 +320,12 @@ pub fn propagate_with(
         }
     }
     // Translucent texels keep the effective irradiance (their exitance over their albedo), what
-    // every reader multiplies by the albedo (`Subsurface::effective`).
+    // every reader multiplies by the albedo (`Subsurface::effective`). The first bounce stays
+    // the irradiance that arrived: the guided gather's field subtracts it where it adds its own
+    // direct light on the same side, which stands for it, so the light the direct light sent
+    // through a translucent surface stays in the field.
     if let Some(s) = &sss {
         s.effective(scene, &mut irradiance);
-        if let Some(fb) = first_bounce.as_mut() {
-            s.effective(scene, fb);
-        }
     }
     Propagated {
         irradiance,
