@@ -432,3 +432,88 @@ fn opaque_scenes_build_no_links() {
     assert!(prep.translucency.is_empty());
     assert!(Subsurface::new(&prep, &LinkParams::default(), 0).is_none());
 }
+
+/// A closed paper box (diffuseTransmissionFactor 0.5) lit from above, baked with and without
+/// the final gather: the light it shows outside (albedo × effective irradiance, as the renderer
+/// reads it) agrees. The gather's sample points must count the box's inside as open (light
+/// crosses its walls); when they did not, the inside gathered nothing and the walls showed a
+/// fraction of the light the lit top passes through them.
+#[test]
+fn paper_box_through_the_final_gather() {
+    use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+    let mut b = SceneBuilder::new();
+    let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
+    let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
+    let paper = b.diffuse("paper", Vec3::splat(0.8), Vec3::ZERO);
+    b.translucent(
+        paper,
+        Translucency::ThinDiffuseTransmission {
+            factor: 0.5,
+            color: Vec3::ONE,
+        },
+    );
+    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
+    b.quad(
+        [
+            Vec3::new(-0.3, 0.99, -0.3),
+            Vec3::new(0.3, 0.99, -0.3),
+            Vec3::new(0.3, 0.99, 0.3),
+            Vec3::new(-0.3, 0.99, 0.3),
+        ],
+        lamp,
+    );
+    b.aabox(
+        Vec3::new(-0.3, -0.9, -0.3),
+        Vec3::new(0.3, -0.3, 0.3),
+        false,
+        paper,
+    );
+    let scene = b.build("paper box");
+    let params = |gather: bool| BakeParams {
+        directions: 46,
+        resolution: 32,
+        tile: 8,
+        iterations: Iterations::Converge {
+            threshold: 1e-3,
+            max: 40,
+        },
+        final_gather: gather.then_some(GatherParams {
+            texel_scale: 1.0,
+            indirect_texel_scale: 2.0,
+            light_samples: 16,
+            direct_rays: 16,
+            indirect_rays: 64,
+            sampling: Sampling::FIXED,
+            denoise: false,
+        }),
+        ..BakeParams::paper()
+    };
+    // Mean exitance of the paper's four vertical faces' outsides.
+    let shown = |gather: bool| {
+        let lf = vlf_core::pipeline::bake_cpu(&scene, &params(gather)).unwrap();
+        let irr = lf.irradiance.to_f32();
+        let (mut s, mut n) = (Vec3::ZERO, 0.0);
+        for f in lf
+            .faces
+            .iter()
+            .filter(|f| f.material == paper && f.normal[1].abs() < 0.5)
+        {
+            for t in f.texel_base..f.texel_base + f.texels_per_side() {
+                s += Vec4::from(irr[t as usize]).truncate() * 0.8;
+                n += 1.0;
+            }
+        }
+        s / n
+    };
+    let (with, without) = (shown(true), shown(false));
+    eprintln!("paper walls' exitance: gathered {with:?}, propagated {without:?}");
+    for c in 0..3 {
+        let r = with[c] / without[c];
+        // The gather's own estimate differs from the propagation's by its better sampling; the
+        // bug this guards against was a factor of 8.
+        assert!(
+            (0.8..1.25).contains(&r),
+            "channel {c}: gathered / propagated = {r}"
+        );
+    }
+}
