@@ -168,7 +168,7 @@ fn medium(
             f *= tr;
             pdf *= tr;
             let k = pdf[c];
-            if !(k > 0.0) {
+            if k.is_nan() || k <= 0.0 {
                 return Crossing::Absorbed;
             }
             (f, pdf) = (f / k, pdf / k);
@@ -198,7 +198,7 @@ fn medium(
         f *= sigma_s * tr;
         pdf *= sigma_t * tr;
         let k = pdf[c];
-        if !(k > 0.0) {
+        if k.is_nan() || k <= 0.0 {
             return Crossing::Absorbed;
         }
         (f, pdf) = (f / k, pdf / k);
