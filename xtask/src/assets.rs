@@ -161,7 +161,24 @@ enum Material {
     Green,
     Light,
     Mirror,
+    /// Jensen et al.'s marble as a scattering volume (`docs/SUBSURFACE.md`).
+    Marble,
+    /// A thin sheet that transmits half its diffuse light (`KHR_materials_diffuse_transmission`).
+    Paper,
 }
+
+const IOR: &str = "KHR_materials_ior";
+const VOLUME: &str = "KHR_materials_volume";
+const VOLUME_SCATTER: &str = "KHR_materials_volume_scatter";
+const DIFFUSE_TRANSMISSION: &str = "KHR_materials_diffuse_transmission";
+
+/// Marble's extinction σ_t = σ_s′ + σ_a (Jensen et al. 2001: 2.1921, 2.6241, 3.0071 /mm) as
+/// `attenuationColor` over an `attenuationDistance` of 1 mm: e^{−σ_t × 1 mm}, printed to five
+/// digits (the generator uses only IEEE-exact arithmetic, so these are constants).
+const MARBLE_ATTENUATION_COLOR: [f64; 3] = [0.11168, 0.072505, 0.049435];
+/// Marble's total diffuse reflectance under the dipole at η = 1.5 (Jensen's closed form):
+/// `multiscatterColor`, from which the importer recovers its reduced albedo.
+const MARBLE_MULTISCATTER: [f64; 3] = [0.83031, 0.79110, 0.75277];
 
 impl Material {
     fn name(self) -> &'static str {
@@ -171,6 +188,8 @@ impl Material {
             Material::Green => "green",
             Material::Light => "light",
             Material::Mirror => "mirror",
+            Material::Marble => "marble",
+            Material::Paper => "paper",
         }
     }
 
@@ -194,7 +213,33 @@ impl Material {
                 "metallicFactor": 1.0,
                 "roughnessFactor": 0.0,
             }),
+            Material::Marble => lambert([0.9, 0.9, 0.9]),
+            Material::Paper => lambert([0.8, 0.8, 0.8]),
         };
+        match self {
+            Material::Marble => {
+                m.insert(
+                    "extensions".into(),
+                    json!({
+                        IOR: { "ior": 1.5 },
+                        VOLUME: {
+                            "thicknessFactor": 0.33,
+                            "attenuationDistance": 0.001,
+                            "attenuationColor": MARBLE_ATTENUATION_COLOR,
+                        },
+                        VOLUME_SCATTER: { "multiscatterColor": MARBLE_MULTISCATTER },
+                        DIFFUSE_TRANSMISSION: { "diffuseTransmissionFactor": 1.0 },
+                    }),
+                );
+            }
+            Material::Paper => {
+                m.insert(
+                    "extensions".into(),
+                    json!({ DIFFUSE_TRANSMISSION: { "diffuseTransmissionFactor": 0.5 } }),
+                );
+            }
+            _ => {}
+        }
         m.insert("pbrMetallicRoughness".into(), pbr);
         if self == Material::Light {
             let factor: Vec<f64> = LIGHT_RADIANCE.iter().map(|c| c / LIGHT_STRENGTH).collect();
@@ -232,12 +277,19 @@ enum Variant {
     Diffuse,
     /// The tall block is a perfect mirror.
     Mirror,
+    /// The tall block is marble (a dipole medium), the short one a paper shell (thin diffuse
+    /// transmission): issue 28.
+    Translucent,
 }
 
 /// The generated files, relative to the output (or `assets/`) directory.
-const OUTPUTS: [(&str, Variant); 2] = [
+const OUTPUTS: [(&str, Variant); 3] = [
     ("cornell-box/cornell-box.gltf", Variant::Diffuse),
     ("cornell-mirror/cornell-mirror.gltf", Variant::Mirror),
+    (
+        "cornell-translucent/cornell-translucent.gltf",
+        Variant::Translucent,
+    ),
 ];
 
 fn objects(variant: Variant) -> [Object; 8] {
@@ -250,6 +302,11 @@ fn objects(variant: Variant) -> [Object; 8] {
     let tall = match variant {
         Variant::Diffuse => Material::White,
         Variant::Mirror => Material::Mirror,
+        Variant::Translucent => Material::Marble,
+    };
+    let short = match variant {
+        Variant::Translucent => Material::Paper,
+        _ => Material::White,
     };
     [
         obj("floor", Material::White, &FLOOR, Facing::IntoRoom),
@@ -262,12 +319,7 @@ fn objects(variant: Variant) -> [Object; 8] {
             &RIGHT_WALL,
             Facing::IntoRoom,
         ),
-        obj(
-            "short_block",
-            Material::White,
-            &SHORT_BLOCK,
-            Facing::OutOfSolid,
-        ),
+        obj("short_block", short, &SHORT_BLOCK, Facing::OutOfSolid),
         obj("tall_block", tall, &TALL_BLOCK, Facing::OutOfSolid),
         obj("light", Material::Light, &LIGHT, Facing::Down),
     ]
@@ -476,6 +528,9 @@ fn scene_json(variant: Variant) -> Value {
     if variant == Variant::Mirror {
         materials.push(Material::Mirror);
     }
+    if variant == Variant::Translucent {
+        materials.extend([Material::Paper, Material::Marble]);
+    }
 
     let mut buf = BufferBuilder::default();
     let mut meshes = Vec::new();
@@ -517,7 +572,12 @@ fn scene_json(variant: Variant) -> Value {
     let scene_name = match variant {
         Variant::Diffuse => "cornell_box",
         Variant::Mirror => "cornell_mirror",
+        Variant::Translucent => "cornell_translucent",
     };
+    let mut used = vec![EMISSIVE_STRENGTH];
+    if variant == Variant::Translucent {
+        used.extend([DIFFUSE_TRANSMISSION, IOR, VOLUME, VOLUME_SCATTER]);
+    }
 
     let uri = format!(
         "data:application/octet-stream;base64,{}",
@@ -525,7 +585,7 @@ fn scene_json(variant: Variant) -> Value {
     );
     let doc = json!({
         "asset": { "generator": GENERATOR, "version": "2.0" },
-        "extensionsUsed": [EMISSIVE_STRENGTH],
+        "extensionsUsed": used,
         "scene": 0,
         "scenes": [{ "name": scene_name, "nodes": scene_nodes }],
         "nodes": nodes,
@@ -641,7 +701,7 @@ mod tests {
 
     #[test]
     fn faces_point_into_the_room_and_out_of_the_blocks() {
-        for variant in [Variant::Diffuse, Variant::Mirror] {
+        for variant in [Variant::Diffuse, Variant::Mirror, Variant::Translucent] {
             for o in objects(variant) {
                 assert_eq!(misoriented(&o), Vec::<[Mm; 3]>::new(), "{}", o.name);
             }

@@ -310,6 +310,18 @@ pub fn bake_scene(
         progress(done, total, &format!("iteration {}", p.iteration + 1));
     };
     let (out, adapter) = match compute {
+        // The GPU propagator has no subsurface step yet (docs/SUBSURFACE.md): scenes with
+        // translucent materials propagate on the CPU.
+        Compute::Gpu(..) if !prep.translucency.is_empty() => {
+            log::warn!(
+                "{}: translucent materials (subsurface scattering, diffuse transmission) are propagated on the CPU: the GPU propagator has no subsurface step yet",
+                scene_path.display()
+            );
+            (
+                bake::reference::propagate_with(&prep, &set, params, threads, &mut report),
+                "CPU reference (translucent materials)".to_string(),
+            )
+        }
         Compute::Gpu(ctx, _) => {
             let out = memory::guard_gpu(ctx, &plan, || {
                 // The memory plan holds the propagator's buffer plan: the propagator allocates

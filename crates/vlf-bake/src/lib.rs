@@ -177,6 +177,7 @@ struct Inspection {
     material_models: Vec<(String, String)>,
     shading: Vec<vlf_core::scene::MaterialShading>,
     lights: Vec<LightReport>,
+    translucency: Vec<vlf_core::scene::MaterialTranslucency>,
 }
 
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
@@ -190,7 +191,10 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
             .collect(),
         shading: scene.material_shading(),
         lights: scene.lights.iter().map(LightReport::of).collect(),
+        // Each material's subsurface model (docs/SUBSURFACE.md).
+        translucency: scene.material_translucency(),
     };
+    let translucency = &report.translucency;
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
@@ -207,6 +211,9 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     }
     for l in &report.lights {
         println!("{l}");
+    }
+    for m in translucency {
+        println!("{m}");
     }
     for w in &scene.warnings {
         println!("warning: {w}");

@@ -3,6 +3,7 @@
 //! parameters ask for them, and the assembled light field.
 
 use crate::bake::reference::{self, Propagated};
+use crate::bake::subsurface::{LinkParams, Subsurface};
 use crate::bake::{BakeError, BakeScene, try_assemble};
 use crate::directions::DirectionSet;
 use crate::gather::{Converged, GatherStats, Gathered, final_gather};
@@ -79,8 +80,13 @@ pub fn finish_gathered(
     propagated: Propagated,
     stats: BakeStats,
     threads: usize,
-    g: Gathered,
+    mut g: Gathered,
 ) -> Result<Finished, BakeError> {
+    // Translucent texels gathered their true irradiance: their effective irradiance on the
+    // gather's atlas, through its own links (`docs/SUBSURFACE.md`).
+    if let Some(s) = Subsurface::new(&g.atlas, &LinkParams::default(), threads) {
+        s.effective(&g.atlas, &mut g.irradiance);
+    }
     // The mirror tiles, resampled by tracing true reflected rays into the gathered field.
     let mut resample = None;
     let tiles = propagated.tiles.as_ref().map(|(index, values)| {

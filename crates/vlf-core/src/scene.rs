@@ -57,12 +57,14 @@
 //! - a scene with no triangle left is an error ([`SceneError::Empty`]).
 
 mod builder;
+pub mod dipole;
 mod error;
 mod faces;
 mod gltf_import;
 mod lights;
 mod material;
 mod texture;
+mod translucency;
 mod uri;
 
 use std::ops::Range;
@@ -79,6 +81,7 @@ pub use material::{
     Material, MaterialKind, TexRef, Transparency, lobes, pane_reflectance,
 };
 pub use texture::{FilterMode, Texture, WrapMode};
+pub use translucency::{MaterialTranslucency, Translucency};
 
 /// Largest number of triangles [`load`] accepts (after instancing); more is
 /// reported as [`SceneError::TooLarge`] instead of exhausting memory.
@@ -403,6 +406,10 @@ pub struct Scene {
     /// Point and spot lights.
     #[serde(default)]
     pub lights: Vec<PunctualLight>,
+    /// The subsurface model of each material, by material index (`docs/SUBSURFACE.md`); a
+    /// material past its end is opaque ([`Scene::translucency_of`]).
+    #[serde(default)]
+    pub translucency: Vec<Translucency>,
     /// Bounds of all triangle vertices.
     pub bounds: Aabb,
     /// World → VLF coordinates.
@@ -517,6 +524,35 @@ impl Scene {
     pub fn face_triangles(&self, face: usize) -> &[Triangle] {
         let r = &self.faces[face].triangles;
         &self.triangles[r.start as usize..r.end as usize]
+    }
+
+    /// The subsurface model of material `material` ([`Translucency::None`] when it has none).
+    pub fn translucency_of(&self, material: u32) -> Translucency {
+        self.translucency
+            .get(material as usize)
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// Whether any face has a translucent material (light crossing surfaces).
+    pub fn has_translucency(&self) -> bool {
+        self.translucency.iter().any(Translucency::is_translucent)
+            && self
+                .faces
+                .iter()
+                .any(|f| self.translucency_of(f.material).is_translucent())
+    }
+
+    /// Every material's subsurface model, for reports (`vlf-bake inspect`).
+    pub fn material_translucency(&self) -> Vec<MaterialTranslucency> {
+        self.materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MaterialTranslucency {
+                material: m.name.clone(),
+                translucency: self.translucency_of(i as u32),
+            })
+            .collect()
     }
 
     /// Whether any triangle uses an emissive material.

@@ -617,6 +617,7 @@ fn points_above_touching_boxes_are_closed() {
         bvh: &ps.bvh,
         r_close: 0.05,
         panes: Vec::new(),
+        see_through: Vec::new(),
     };
     let mut closed = 0;
     for i in -20..=20 {

@@ -11,6 +11,7 @@ pub mod punctual;
 pub mod quality;
 pub mod reference;
 pub mod refine;
+pub mod subsurface;
 
 pub use prep::BakeScene;
 pub use quality::{Preset, Quality};

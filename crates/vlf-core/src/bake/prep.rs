@@ -23,7 +23,7 @@ use crate::lightfield::{
     ParamsError,
 };
 use crate::pathtrace::lights::DeltaLight;
-use crate::scene::{MaterialKind, Scene, Texture};
+use crate::scene::{MaterialKind, Scene, Texture, Translucency};
 
 /// A face's thin glass pane as the propagation reads it (32 bytes; mirrors WGSL `PaneFace` of
 /// `shaders/common/pane.wgsl`): crossing the face along a direction at |cos θ| to its normal,
@@ -105,6 +105,11 @@ pub struct BakeScene {
     /// VLF scale², so irradiance is unchanged): their direct light is injected into the
     /// propagation's first iteration ([`super::punctual`]).
     pub lights: Vec<DeltaLight>,
+    /// Each material's subsurface model in VLF units (coefficients per VLF unit; a thin
+    /// transmission's colour times the diffuse weight), by material index; empty when no
+    /// material is translucent (`docs/SUBSURFACE.md`, `super::subsurface`, which replaces what
+    /// translucent texels send on).
+    pub translucency: Vec<Translucency>,
     pub texel_size: f32,
     pub warnings: Vec<String>,
 }
@@ -361,6 +366,7 @@ impl BakeScene {
             .iter()
             .map(|f| baked[f.material as usize].model)
             .collect();
+        let translucency = vlf_translucency(scene, xf.scale);
         let suns = scene
             .suns
             .iter()
@@ -385,6 +391,7 @@ impl BakeScene {
                 .map(|l| DeltaLight::punctual(l, &xf))
                 .filter(|l| l.intensity.max_element() > 0.0 && l.intensity.is_finite())
                 .collect(),
+            translucency,
             texel_size,
             warnings,
         })
@@ -624,6 +631,34 @@ fn barycentrics(q: &[Vec2; 3], c: Vec2) -> (f32, f32) {
         return (0.0, 0.0);
     }
     (d.perp_dot(e2) / det, e1.perp_dot(d) / det)
+}
+
+/// Every material's subsurface model in VLF units (`scale` VLF units per scene unit), a thin
+/// transmission's colour times the material's diffuse weight; empty when none is translucent.
+fn vlf_translucency(scene: &Scene, scale: f32) -> Vec<Translucency> {
+    if !scene.has_translucency() {
+        return Vec::new();
+    }
+    (0..scene.materials.len() as u32)
+        .map(|m| match scene.translucency_of(m) {
+            Translucency::ThinDiffuseTransmission { factor, color } => {
+                Translucency::ThinDiffuseTransmission {
+                    factor,
+                    color: color * factor * scene.materials[m as usize].diffuse_weight(),
+                }
+            }
+            Translucency::Dipole {
+                sigma_s_prime,
+                sigma_a,
+                eta,
+            } => Translucency::Dipole {
+                sigma_s_prime: sigma_s_prime / scale,
+                sigma_a: sigma_a / scale,
+                eta,
+            },
+            Translucency::None => Translucency::None,
+        })
+        .collect()
 }
 
 #[cfg(test)]

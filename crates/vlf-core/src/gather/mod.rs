@@ -599,6 +599,14 @@ impl Grid {
                     .iter()
                     .map(|m| m.pane_weight() > 0.0)
                     .collect(),
+                see_through: (0..scene.materials.len() as u32)
+                    .map(|m| {
+                        matches!(
+                            scene.translucency_of(m),
+                            crate::scene::Translucency::ThinDiffuseTransmission { .. }
+                        )
+                    })
+                    .collect(),
             },
             xf: scene.to_vlf,
             tex_face: &self.tex_face,

@@ -33,6 +33,10 @@ pub struct Openness<'a> {
     /// Per material (BVH triangles' `material`): whether it is a thin glass pane, which is
     /// never the wall of a closed solid (a probe that meets one is open).
     pub panes: Vec<bool>,
+    /// By material index (empty: none): surfaces that light crosses (thin diffuse
+    /// transmission, `docs/SUBSURFACE.md`), whose back faces do not close a solid: the inside of
+    /// a paper lantern is lit through its walls.
+    pub see_through: Vec<bool>,
 }
 
 impl Openness<'_> {
@@ -55,8 +59,9 @@ impl Openness<'_> {
             let front = !hit.is_hit() || {
                 let tri = &self.bvh.triangles[hit.tri as usize];
                 let [a, b, c] = tri.corners();
-                // A pane passes light: it counts as open.
+                // A pane or a see-through wall passes light: it counts as open.
                 self.panes.get(tri.material as usize) == Some(&true)
+                    || self.see_through.get(tri.material as usize) == Some(&true)
                     || (b - a).cross(c - a).dot(d) <= 0.0
             };
             if front {

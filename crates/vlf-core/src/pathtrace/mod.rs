@@ -41,6 +41,7 @@ pub mod geometry;
 pub mod lights;
 pub mod material;
 pub mod sampling;
+mod walk;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -386,6 +387,32 @@ impl<'a> PreparedScene<'a> {
             let wo = -d;
             let p = p0 * (1.0 - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
             let color = self.base_color(hit.tri, hit.u, hit.v);
+            // Translucent surfaces (`walk`): transmission or a random walk inside.
+            if let Some(x) = walk::cross(self, tri.material, color, p, ng, d, rng) {
+                let walk::Crossing::Continue {
+                    origin,
+                    dir,
+                    weight,
+                } = x
+                else {
+                    break;
+                };
+                beta *= weight;
+                if depth >= RR_DEPTH {
+                    let q = beta.max_element().min(RR_MAX_SURVIVAL);
+                    if rng.next_f32() >= q {
+                        break;
+                    }
+                    beta /= q;
+                }
+                if beta == Vec3::ZERO || !beta.is_finite() {
+                    break;
+                }
+                depth += 1;
+                prev_delta = true;
+                ray = Ray::new(origin, dir, f32::INFINITY);
+                continue;
+            }
             let origin = offset_ray_origin(p, ng);
             // Next-event estimation: one light sample.
             let u_class = rng.next_f32();

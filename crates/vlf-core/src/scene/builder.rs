@@ -3,7 +3,10 @@
 use glam::{Vec2, Vec3};
 
 use super::faces::{RawTriangle, build_faces};
-use super::{Aabb, Corners, Material, MaterialKind, Scene, Texture, Transparency, fit_similarity};
+use super::{
+    Aabb, Corners, Material, MaterialKind, Scene, Texture, Translucency, Transparency,
+    fit_similarity,
+};
 
 /// Accumulates triangles and materials, then builds a [`Scene`] exactly as the glTF importer
 /// does (faces merged, VLF transform fitted).
@@ -12,6 +15,7 @@ pub struct SceneBuilder {
     triangles: Vec<RawTriangle>,
     materials: Vec<Material>,
     textures: Vec<Texture>,
+    translucency: Vec<(u32, Translucency)>,
 }
 
 impl SceneBuilder {
@@ -49,6 +53,12 @@ impl SceneBuilder {
             roughness: 0.0,
             transparency: Transparency::default(),
         })
+    }
+
+    /// Gives material `material` the subsurface model `model` (`docs/SUBSURFACE.md`).
+    pub fn translucent(&mut self, material: u32, model: Translucency) -> &mut Self {
+        self.translucency.push((material, model));
+        self
     }
 
     /// Adds any material; returns its index.
@@ -192,6 +202,10 @@ impl SceneBuilder {
             }
         }
         let to_vlf = fit_similarity(&triangles, &bounds);
+        let mut translucency = vec![Translucency::None; self.materials.len()];
+        for (m, model) in self.translucency {
+            translucency[m as usize] = model;
+        }
         Scene {
             triangles,
             faces,
@@ -200,6 +214,7 @@ impl SceneBuilder {
             cameras: Vec::new(),
             suns: Vec::new(),
             lights: Vec::new(),
+            translucency,
             bounds,
             to_vlf,
             warnings: Vec::new(),

@@ -56,6 +56,7 @@ pub use transport::{SplitMix64, TransportDir, all_directions, transport_directio
 use glam::{Vec3, Vec4};
 
 use crate::bake::BakeScene;
+use crate::bake::subsurface::{LinkParams, Subsurface};
 use crate::directions::DirectionSet;
 use crate::lightfield::{BakeParams, TileIndex};
 use crate::psf::PsfGrid;
@@ -70,7 +71,9 @@ pub struct Propagated {
     /// Total irradiance per texel (rgb, a = 0), all iterations: what arrived at each texel side
     /// from surfaces, sky, suns, point and spot lights. The light field stores it (the renderer applies albedo and
     /// emission per pixel); the final gather reads the converged field through it. The
-    /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it.
+    /// texels' outgoing radiance is [`BakeScene::outgoing_radiance`] of it. Translucent texels
+    /// hold their effective irradiance instead, their exitance over their albedo
+    /// (`docs/SUBSURFACE.md`), so that the same product gives their light.
     pub irradiance: Vec<[f32; 4]>,
     /// The irradiance of the first iteration alone (light straight from emitters, sky, suns,
     /// point and spot lights), where the propagation kept it: the final gather replaces it by its own direct
@@ -217,7 +220,11 @@ pub fn propagate_with(
     let spec = SpecularSetup::new(scene, set, &grid, &dirs);
     let n_tex = scene.texel_count();
     let tex_face = texel_faces(scene);
-    let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some()));
+    // Translucent materials (`docs/SUBSURFACE.md`): their links, built once; none otherwise.
+    let sss = Subsurface::new(scene, &LinkParams::default(), threads);
+    // Over-relaxation's bound is the largest albedo, which the light crossing translucent
+    // surfaces is not in: plain shooting for them.
+    let mut shooting = Shooting::new(scene, accelerates(params, spec.is_some() || sss.is_some()));
     let punctual = crate::bake::punctual::injected_irradiance(scene, threads);
     let mut next = vec![[0f32; 4]; n_tex];
     let mut irradiance = vec![[0f32; 4]; n_tex];
@@ -274,6 +281,7 @@ pub fn propagate_with(
                 });
             },
         );
+        let before = sss.as_ref().map(|s| s.snapshot(&irradiance));
         let mut e = finish_iteration(
             scene,
             &tex_face,
@@ -286,6 +294,14 @@ pub fn propagate_with(
             &mut irradiance,
         );
         pane.apply(&mut e);
+        if let (Some(s), Some(b)) = (&sss, &before) {
+            // Translucent texels send on their exitance (transmitted and scattered light
+            // included) instead of ρE: the difference leaves `absorbed` for the unshot.
+            let moved = s.apply(scene, b, &irradiance, &mut next);
+            e.next += moved;
+            e.absorbed -= moved;
+            e.magnitude = e.next;
+        }
         if let Some(s) = &spec {
             e.sent += tile_power(&s.index, &unshot_tiles, set, &grid);
             e.absorbed += take_tile_loss(&s.index, &mut next_tiles, set, &grid);
@@ -314,6 +330,14 @@ pub fn propagate_with(
         if energy.converged(threshold) {
             break;
         }
+    }
+    // Translucent texels keep the effective irradiance (their exitance over their albedo), what
+    // every reader multiplies by the albedo (`Subsurface::effective`). The first bounce stays
+    // the irradiance that arrived: the guided gather's field subtracts it where it adds its own
+    // direct light on the same side, which stands for it, so the light the direct light sent
+    // through a translucent surface stays in the field.
+    if let Some(s) = &sss {
+        s.effective(scene, &mut irradiance);
     }
     Propagated {
         irradiance,

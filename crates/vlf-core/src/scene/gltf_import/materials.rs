@@ -180,16 +180,16 @@ impl Importer<'_> {
             return;
         };
         if let Some(exts) = raw.get("extensions").and_then(Value::as_object) {
-            // Transmission, its IOR and (for panes) its volume are read or warned about in
-            // `read_transmission`.
+            // Transmission and its IOR are read (and a pane's volume warned about) in
+            // `read_transmission`; IOR, diffuse transmission, volume and volume scatter in
+            // `translucency` (docs/SUBSURFACE.md).
             let modelled = [
                 "KHR_materials_emissive_strength",
                 "KHR_materials_transmission",
                 "KHR_materials_ior",
             ];
-            let pane = exts.contains_key("KHR_materials_transmission");
             for name in exts.keys() {
-                if !(modelled.contains(&name.as_str()) || pane && name == "KHR_materials_volume") {
+                if !(modelled.contains(&name.as_str()) || super::translucency::handles(name)) {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }

@@ -17,6 +17,7 @@ mod glb;
 mod materials;
 mod meshes;
 mod nodes;
+mod translucency;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};

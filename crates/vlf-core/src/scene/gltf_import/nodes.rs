@@ -207,6 +207,7 @@ impl Importer<'_> {
             }
         }
         let to_vlf = fit_similarity(&triangles, &bounds);
+        let translucency = self.convert_translucency()?;
         Ok(Scene {
             triangles,
             faces,
@@ -215,6 +216,7 @@ impl Importer<'_> {
             cameras,
             suns,
             lights,
+            translucency,
             bounds,
             to_vlf,
             warnings: self.warnings,
