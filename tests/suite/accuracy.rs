@@ -237,6 +237,33 @@ fn default_quality_lava_circuit_matches_path_traced_reference_by_flip() {
     }
 }
 
+/// Default bake of `scene` (camera 0, the final gather, traced mirrors) against `reference` by
+/// relMSE and mean HDR-FLIP, both bounded.
+fn relmse_and_flip_within(
+    scene: &str,
+    reference: &str,
+    propagation: Propagation,
+    sky: Vec3,
+    (max_rel_mse, max_flip): (f64, f32),
+) {
+    let Some((stills, refimg)) = stills_and_reference(
+        scene,
+        reference,
+        View::Camera0,
+        true,
+        &[true],
+        propagation,
+        sky,
+    ) else {
+        return;
+    };
+    let e = image::rel_mse(&stills[0], &refimg);
+    let flip = image::flip(&stills[0], &refimg).mean;
+    eprintln!("{scene}, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
+    assert!(e <= max_rel_mse, "relMSE {e:.3e} > {max_rel_mse:.1e}");
+    assert!(flip <= max_flip, "mean HDR-FLIP {flip:.4} > {max_flip}");
+}
+
 #[test]
 fn default_quality_window_room_matches_path_traced_reference() {
     // Sky (1, 1, 1) only, through two windows (issue 24: 9.4e-3 and mean FLIP 0.35 at the
@@ -244,22 +271,13 @@ fn default_quality_window_room_matches_path_traced_reference() {
     // and 0.108; no light across the window wall's head: measured 6.67e-4 and 0.104). The
     // issue's FLIP goal, 0.06, is not met (docs/GATHER.md says why); the bound keeps what was
     // reached. Propagated by the CPU reference (bit-identical).
-    let Some((stills, refimg)) = stills_and_reference(
+    relmse_and_flip_within(
         "window-room/window-room.glb",
         "window-room-ref.exr",
-        View::Camera0,
-        true,
-        &[true],
         Propagation::Cpu,
         Vec3::ONE,
-    ) else {
-        return;
-    };
-    let e = image::rel_mse(&stills[0], &refimg);
-    let flip = image::flip(&stills[0], &refimg).mean;
-    eprintln!("window-room, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
-    assert!(e <= 8e-4, "relMSE {e:.3e} > 8e-4");
-    assert!(flip <= 0.11, "mean HDR-FLIP {flip:.4} > 0.11");
+        (8e-4, 0.11),
+    );
 }
 
 #[test]
@@ -268,22 +286,13 @@ fn default_quality_window_room_glazed_matches_path_traced_reference() {
     // measured 7.54e-4 and mean FLIP 0.101 against goals of 3e-3 and 0.08 — the FLIP is the
     // unglazed room's, whose causes docs/GATHER.md measures). Gathered on the CPU (the GPU
     // gather has no panes); propagated by the CPU reference (bit-identical).
-    let Some((stills, refimg)) = stills_and_reference(
+    relmse_and_flip_within(
         "window-room-glazed/window-room-glazed.glb",
         "window-room-glazed-ref.exr",
-        View::Camera0,
-        true,
-        &[true],
         Propagation::Cpu,
         Vec3::ONE,
-    ) else {
-        return;
-    };
-    let e = image::rel_mse(&stills[0], &refimg);
-    let flip = image::flip(&stills[0], &refimg).mean;
-    eprintln!("window-room-glazed, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
-    assert!(e <= 9e-4, "relMSE {e:.3e} > 9e-4");
-    assert!(flip <= 0.106, "mean HDR-FLIP {flip:.4} > 0.106");
+        (9e-4, 0.106),
+    );
 }
 
 #[test]
@@ -294,20 +303,11 @@ fn default_quality_lamp_room_matches_path_traced_reference() {
     // (docs/TRANSMISSION.md: Mitsuba's path integrator tests shadow rays as opaque at a mask);
     // outside the pixels where the two path tracers disagree the bake scores 3.8e-4. The
     // bounds keep what was reached.
-    let Some((stills, refimg)) = stills_and_reference(
+    relmse_and_flip_within(
         "lamp-room/lamp-room.glb",
         "lamp-room-ref.exr",
-        View::Camera0,
-        true,
-        &[true],
         Propagation::Gpu,
         Vec3::ZERO,
-    ) else {
-        return;
-    };
-    let e = image::rel_mse(&stills[0], &refimg);
-    let flip = image::flip(&stills[0], &refimg).mean;
-    eprintln!("lamp-room, default quality: relMSE {e:.3e}, mean HDR-FLIP {flip:.4}");
-    assert!(e <= 8.5e-3, "relMSE {e:.3e} > 8.5e-3");
-    assert!(flip <= 0.045, "mean HDR-FLIP {flip:.4} > 0.045");
+        (8.5e-3, 0.045),
+    );
 }

@@ -216,15 +216,16 @@ fn finish(
     threads: usize,
 ) -> anyhow::Result<vlf_core::pipeline::Finished> {
     use vlf_core::pipeline;
-    // The GPU gather samples fixed counts only and has no panes yet: guided or adaptive
-    // sampling, the denoiser and glazed scenes gather on the CPU.
-    let gpu_gather = params
-        .final_gather
-        .filter(|g| g.sampling.is_fixed() && !g.denoise && !scene.has_panes());
+    // The GPU gather samples fixed counts only and has neither panes nor the see-through rule
+    // of thin translucent walls yet: guided or adaptive sampling, the denoiser, glazed and
+    // translucent scenes gather on the CPU.
+    let gpu_gather = params.final_gather.filter(|g| {
+        g.sampling.is_fixed() && !g.denoise && !scene.has_panes() && !scene.has_translucency()
+    });
     if let (Compute::Gpu(..), Some(_), None) = (compute, params.final_gather, gpu_gather) {
         log::info!(
             "final gather on the CPU: the GPU gather has no guided or adaptive sampling, \
-             denoiser or glass panes"
+             denoiser, glass panes or translucent walls"
         );
     }
     let (Compute::Gpu(ctx, _), Some(gp)) = (compute, gpu_gather) else {

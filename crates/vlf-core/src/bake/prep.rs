@@ -139,71 +139,8 @@ impl BakeScene {
         let masks = AlphaMasks::from_scene(scene);
         let warnings = Vec::new();
 
-        let triangles: Vec<BakeTriangle> = scene
-            .triangles
-            .iter()
-            .map(|t| BakeTriangle {
-                p0: xf.apply(t.p[0]).into(),
-                face: t.face,
-                p1: xf.apply(t.p[1]).into(),
-                _pad0: 0,
-                p2: xf.apply(t.p[2]).into(),
-                _pad1: 0,
-            })
-            .collect();
-
-        let mut faces = Vec::with_capacity(scene.faces.len());
-        let mut texel_count: u64 = 0;
-        for (fi, f) in scene.faces.iter().enumerate() {
-            let mat = &scene.materials[f.material as usize];
-            let extent = f.extent * xf.scale;
-            let width = ((extent.x / texel_size).ceil() as u32).max(1);
-            let height = ((extent.y / texel_size).ceil() as u32).max(1);
-            let origin = xf.apply(f.basis.origin);
-            let bm = &baked[f.material as usize];
-            let (kind, specular) = match mat.kind {
-                _ if !bm.model.has_tiles() => (FACE_DIFFUSE, 0.0),
-                // A pane: its mirror part is the pane's, any metal lobe folded.
-                _ if matches!(bm.model, SpecularModel::Pane { .. }) => (
-                    if bm.diffuse_weight > 0.0 {
-                        FACE_MIXED
-                    } else {
-                        FACE_MIRROR
-                    },
-                    mat.pane_weight(),
-                ),
-                MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
-                MaterialKind::Mirror => (FACE_MIRROR, 1.0),
-                MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
-            };
-            faces.push(BakeFace {
-                normal: f.normal.into(),
-                offset: f.normal.dot(origin),
-                origin: origin.into(),
-                texel_size,
-                u: f.basis.u.into(),
-                width,
-                v: f.basis.v.into(),
-                height,
-                texel_base: texel_count as u32,
-                kind,
-                specular,
-                material: f.material,
-            });
-            texel_count += 2 * u64::from(width) * u64::from(height);
-            if texel_count > u64::from(u32::MAX / 2) {
-                return Err(ParamsError::OutOfRange {
-                    name: "texel count",
-                    value: format!("{texel_count} at face {fi}"),
-                    range: "< 2^31 (lower --resolution or raise --texel-scale)",
-                });
-            }
-        }
-        let n = texel_count as usize;
-        let mut texel_area = vec![0f32; n];
-        let mut texel_center = vec![[0f32; 4]; n];
-        let mut albedo = vec![[0f32; 4]; n];
-        let mut emission = vec![[0f32; 4]; n];
+        let (faces, texel_count) = lay_out_faces(scene, &baked, texel_size)?;
+        let mut texels = Texels::new(texel_count as usize);
         // The metal lobe's reflectance is C = base colour × base-colour texture, like the
         // Lambert part's: faces with tiles reflect with the texture's mean over their covered
         // area (the renderer applies the texture per pixel).
@@ -213,135 +150,9 @@ impl BakeScene {
             .iter()
             .map(|f| baked[f.material as usize].specular.extend(0.0).into())
             .collect();
-
         for (fi, f) in scene.faces.iter().enumerate() {
-            let bf = faces[fi];
             let mat = &scene.materials[f.material as usize];
-            let w = bf.width as usize;
-            let h = bf.height as usize;
-            // Per texel: covered area, area-weighted centroid (chart coords), and the triangle
-            // (index in the face) and chart point of the centroid of its largest covered piece.
-            let mut area = vec![0f64; w * h];
-            let mut centroid = vec![Vec2::ZERO; w * h];
-            let mut best = vec![(0f64, 0usize, Vec2::ZERO); w * h];
-            let basis = crate::scene::PlaneBasis {
-                origin: Vec3::from(bf.origin),
-                u: Vec3::from(bf.u),
-                v: Vec3::from(bf.v),
-            };
-            let face_tris = scene.face_triangles(fi);
-            for (k, tri) in face_tris.iter().enumerate() {
-                let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
-                let lo = q[0].min(q[1]).min(q[2]);
-                let hi = q[0].max(q[1]).max(q[2]);
-                let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
-                let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
-                let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
-                let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
-                for y in y0..=y1 {
-                    for x in x0..=x1 {
-                        let poly = clip_to_square(&q, x as f32, y as f32);
-                        let (a, c) = polygon_area_centroid(&poly);
-                        if a <= 0.0 {
-                            continue;
-                        }
-                        let i = y * w + x;
-                        area[i] += a;
-                        centroid[i] += c * a as f32;
-                        if a > best[i].0 {
-                            best[i] = (a, k, c);
-                        }
-                    }
-                }
-            }
-            let base_tex = mat
-                .base_color_texture
-                .map(|t| (&scene.textures[t.index as usize], t.texcoord));
-            let emit_tex = mat
-                .emissive_texture
-                .map(|t| (&scene.textures[t.index as usize], t.texcoord));
-            let face_masks = (!masks.is_empty()).then_some(&masks);
-            let masked = face_masks.is_some_and(|m| m.is_masked(f.triangles.start));
-            // Vertex colours multiply the base colour (never the emission).
-            let colored = face_tris.iter().any(|t| t.colors.is_some());
-            let means =
-                (base_tex.is_some() || emit_tex.is_some() || colored || masked).then(|| {
-                    texture_means(
-                        scene,
-                        fi,
-                        &basis,
-                        texel_size,
-                        (w, h),
-                        [base_tex, emit_tex],
-                        colored,
-                        face_masks.filter(|_| masked),
-                    )
-                });
-            let mut spec_tex = (Vec3::ZERO, 0f64);
-            for i in 0..w * h {
-                if area[i] <= 0.0 {
-                    continue;
-                }
-                let c = centroid[i] / area[i] as f32 * texel_size;
-                let p = basis.from_chart(c);
-                // The means over the covered part the alpha mask leaves (at the centroid of the
-                // largest covered piece for a sliver no sample point fell on).
-                let (_, k, at) = best[i];
-                let point = || {
-                    let tri = &face_tris[k];
-                    let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
-                    (tri, barycentrics(&q, at))
-                };
-                let mean = |k: usize, fallback: &dyn Fn() -> Vec3| match &means {
-                    Some(m) if m.open[i] > 0.0 => m.sum[k][i] / m.open[i],
-                    _ => fallback(),
-                };
-                // The share of the covered part the alpha mask leaves (1 without a mask): a
-                // sliver no sample point fell on is kept or cut whole by its best piece.
-                let coverage = match &means {
-                    _ if !masked => 1.0,
-                    Some(m) if m.weight[i] > 0.0 => m.open[i] / m.weight[i],
-                    _ => {
-                        let (b1, b2) = point().1;
-                        let tri = f.triangles.start + k as u32;
-                        if masks.cuts(tri, [1.0 - b1 - b2, b1, b2]) {
-                            0.0
-                        } else {
-                            1.0
-                        }
-                    }
-                };
-                if coverage <= 0.0 {
-                    continue;
-                }
-                let mut base = baked[f.material as usize].diffuse;
-                if base_tex.is_some() || colored {
-                    let t = mean(0, &|| {
-                        let (tri, (b1, b2)) = point();
-                        surface_value(tri, base_tex, b1, b2) * tri.color_at(b1, b2)
-                    });
-                    base *= t;
-                    spec_tex.0 += t * (area[i] as f32 * coverage);
-                    spec_tex.1 += area[i] * f64::from(coverage);
-                }
-                let mut emit = mat.emission;
-                if emit_tex.is_some() {
-                    emit *= mean(1, &|| {
-                        let (tri, (b1, b2)) = point();
-                        surface_value(tri, emit_tex, b1, b2)
-                    });
-                }
-                let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32 * coverage;
-                for side in 0..2 {
-                    let k = bf.texel_base as usize + side * w * h + i;
-                    texel_area[k] = a;
-                    texel_center[k] = [p.x, p.y, p.z, 0.0];
-                    albedo[k] = base.extend(0.0).into();
-                    if side == 0 {
-                        emission[k] = emit.extend(0.0).into();
-                    }
-                }
-            }
+            let spec_tex = fill_face_texels(scene, fi, &faces[fi], &baked, &masks, &mut texels);
             let tex_mean = if spec_tex.1 > 0.0 {
                 spec_tex.0 / spec_tex.1 as f32
             } else {
@@ -373,12 +184,12 @@ impl BakeScene {
             .map(|s| (s.direction.normalize(), s.irradiance))
             .collect();
         Ok(BakeScene {
-            triangles,
+            triangles: bake_triangles(scene),
             faces,
-            texel_area,
-            texel_center,
-            albedo,
-            emission,
+            texel_area: texels.area,
+            texel_center: texels.center,
+            albedo: texels.albedo,
+            emission: texels.emission,
             specular,
             panes,
             lobes,
@@ -443,6 +254,271 @@ impl BakeScene {
 /// Sample points per texel side of the texture means: twice the texture's texels per atlas
 /// texel side (from the triangle's uv gradient), between these bounds.
 pub const TEXTURE_SAMPLES: std::ops::RangeInclusive<u32> = 4..=8;
+
+/// The scene's triangles in VLF space.
+fn bake_triangles(scene: &Scene) -> Vec<BakeTriangle> {
+    let xf = scene.to_vlf;
+    scene
+        .triangles
+        .iter()
+        .map(|t| BakeTriangle {
+            p0: xf.apply(t.p[0]).into(),
+            face: t.face,
+            p1: xf.apply(t.p[1]).into(),
+            _pad0: 0,
+            p2: xf.apply(t.p[2]).into(),
+            _pad1: 0,
+        })
+        .collect()
+}
+
+/// Per-texel arrays of the atlas being built (both sides of every face).
+struct Texels {
+    area: Vec<f32>,
+    center: Vec<[f32; 4]>,
+    albedo: Vec<[f32; 4]>,
+    emission: Vec<[f32; 4]>,
+}
+
+impl Texels {
+    fn new(n: usize) -> Self {
+        Texels {
+            area: vec![0f32; n],
+            center: vec![[0f32; 4]; n],
+            albedo: vec![[0f32; 4]; n],
+            emission: vec![[0f32; 4]; n],
+        }
+    }
+}
+
+/// Each face's chart (size, kind, specular weight, first texel) and the atlas' texel count.
+fn lay_out_faces(
+    scene: &Scene,
+    baked: &[glossy::BakedMaterial],
+    texel_size: f32,
+) -> Result<(Vec<BakeFace>, u64), ParamsError> {
+    let xf = scene.to_vlf;
+    let mut faces = Vec::with_capacity(scene.faces.len());
+    let mut texel_count: u64 = 0;
+    for (fi, f) in scene.faces.iter().enumerate() {
+        let mat = &scene.materials[f.material as usize];
+        let extent = f.extent * xf.scale;
+        let width = ((extent.x / texel_size).ceil() as u32).max(1);
+        let height = ((extent.y / texel_size).ceil() as u32).max(1);
+        let origin = xf.apply(f.basis.origin);
+        let bm = &baked[f.material as usize];
+        let (kind, specular) = match mat.kind {
+            _ if !bm.model.has_tiles() => (FACE_DIFFUSE, 0.0),
+            // A pane: its mirror part is the pane's, any metal lobe folded.
+            _ if matches!(bm.model, SpecularModel::Pane { .. }) => (
+                if bm.diffuse_weight > 0.0 {
+                    FACE_MIXED
+                } else {
+                    FACE_MIRROR
+                },
+                mat.pane_weight(),
+            ),
+            MaterialKind::Diffuse => (FACE_DIFFUSE, 0.0),
+            MaterialKind::Mirror => (FACE_MIRROR, 1.0),
+            MaterialKind::Mixed { specular } => (FACE_MIXED, specular),
+        };
+        faces.push(BakeFace {
+            normal: f.normal.into(),
+            offset: f.normal.dot(origin),
+            origin: origin.into(),
+            texel_size,
+            u: f.basis.u.into(),
+            width,
+            v: f.basis.v.into(),
+            height,
+            texel_base: texel_count as u32,
+            kind,
+            specular,
+            material: f.material,
+        });
+        texel_count += 2 * u64::from(width) * u64::from(height);
+        if texel_count > u64::from(u32::MAX / 2) {
+            return Err(ParamsError::OutOfRange {
+                name: "texel count",
+                value: format!("{texel_count} at face {fi}"),
+                range: "< 2^31 (lower --resolution or raise --texel-scale)",
+            });
+        }
+    }
+    Ok((faces, texel_count))
+}
+
+/// Where a face's triangles cover the texels of its chart: per texel the covered area, its
+/// area-weighted centroid (chart coordinates), and the triangle (index in the face) and chart
+/// point of the centroid of its largest covered piece.
+struct Coverage {
+    area: Vec<f64>,
+    centroid: Vec<Vec2>,
+    best: Vec<(f64, usize, Vec2)>,
+    basis: crate::scene::PlaneBasis,
+}
+
+fn coverage(scene: &Scene, fi: usize, bf: &BakeFace) -> Coverage {
+    let xf = scene.to_vlf;
+    let texel_size = bf.texel_size;
+    let w = bf.width as usize;
+    let h = bf.height as usize;
+    // Per texel: covered area, area-weighted centroid (chart coords), and the triangle
+    // (index in the face) and chart point of the centroid of its largest covered piece.
+    let mut area = vec![0f64; w * h];
+    let mut centroid = vec![Vec2::ZERO; w * h];
+    let mut best = vec![(0f64, 0usize, Vec2::ZERO); w * h];
+    let basis = crate::scene::PlaneBasis {
+        origin: Vec3::from(bf.origin),
+        u: Vec3::from(bf.u),
+        v: Vec3::from(bf.v),
+    };
+    let face_tris = scene.face_triangles(fi);
+    for (k, tri) in face_tris.iter().enumerate() {
+        let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
+        let lo = q[0].min(q[1]).min(q[2]);
+        let hi = q[0].max(q[1]).max(q[2]);
+        let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
+        let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
+        let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
+        let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let poly = clip_to_square(&q, x as f32, y as f32);
+                let (a, c) = polygon_area_centroid(&poly);
+                if a <= 0.0 {
+                    continue;
+                }
+                let i = y * w + x;
+                area[i] += a;
+                centroid[i] += c * a as f32;
+                if a > best[i].0 {
+                    best[i] = (a, k, c);
+                }
+            }
+        }
+    }
+    Coverage {
+        area,
+        centroid,
+        best,
+        basis,
+    }
+}
+
+/// Fills face `fi`'s texels (both sides): area (less what its alpha mask cuts), centre,
+/// albedo and emission with the textures' and vertex colours' means over the covered part.
+/// Returns the base-colour means' area-weighted sum and weight (the mean the face's mirror
+/// reflectance and pane tint take).
+fn fill_face_texels(
+    scene: &Scene,
+    fi: usize,
+    bf: &BakeFace,
+    baked: &[glossy::BakedMaterial],
+    masks: &AlphaMasks,
+    out: &mut Texels,
+) -> (Vec3, f64) {
+    let xf = scene.to_vlf;
+    let texel_size = bf.texel_size;
+    let f = &scene.faces[fi];
+    let mat = &scene.materials[f.material as usize];
+    let (w, h) = (bf.width as usize, bf.height as usize);
+    let face_tris = scene.face_triangles(fi);
+    let Coverage {
+        area,
+        centroid,
+        best,
+        basis,
+    } = coverage(scene, fi, bf);
+    let base_tex = mat
+        .base_color_texture
+        .map(|t| (&scene.textures[t.index as usize], t.texcoord));
+    let emit_tex = mat
+        .emissive_texture
+        .map(|t| (&scene.textures[t.index as usize], t.texcoord));
+    let face_masks = (!masks.is_empty()).then_some(masks);
+    let masked = face_masks.is_some_and(|m| m.is_masked(f.triangles.start));
+    // Vertex colours multiply the base colour (never the emission).
+    let colored = face_tris.iter().any(|t| t.colors.is_some());
+    let means = (base_tex.is_some() || emit_tex.is_some() || colored || masked).then(|| {
+        texture_means(
+            scene,
+            fi,
+            &basis,
+            texel_size,
+            (w, h),
+            [base_tex, emit_tex],
+            colored,
+            face_masks.filter(|_| masked),
+        )
+    });
+    let mut spec_tex = (Vec3::ZERO, 0f64);
+    for i in 0..w * h {
+        if area[i] <= 0.0 {
+            continue;
+        }
+        let c = centroid[i] / area[i] as f32 * texel_size;
+        let p = basis.from_chart(c);
+        // The means over the covered part the alpha mask leaves (at the centroid of the
+        // largest covered piece for a sliver no sample point fell on).
+        let (_, k, at) = best[i];
+        let point = || {
+            let tri = &face_tris[k];
+            let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
+            (tri, barycentrics(&q, at))
+        };
+        let mean = |k: usize, fallback: &dyn Fn() -> Vec3| match &means {
+            Some(m) if m.open[i] > 0.0 => m.sum[k][i] / m.open[i],
+            _ => fallback(),
+        };
+        // The share of the covered part the alpha mask leaves (1 without a mask): a
+        // sliver no sample point fell on is kept or cut whole by its best piece.
+        let coverage = match &means {
+            _ if !masked => 1.0,
+            Some(m) if m.weight[i] > 0.0 => m.open[i] / m.weight[i],
+            _ => {
+                let (b1, b2) = point().1;
+                let tri = f.triangles.start + k as u32;
+                if masks.cuts(tri, [1.0 - b1 - b2, b1, b2]) {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+        };
+        if coverage <= 0.0 {
+            continue;
+        }
+        let mut base = baked[f.material as usize].diffuse;
+        if base_tex.is_some() || colored {
+            let t = mean(0, &|| {
+                let (tri, (b1, b2)) = point();
+                surface_value(tri, base_tex, b1, b2) * tri.color_at(b1, b2)
+            });
+            base *= t;
+            spec_tex.0 += t * (area[i] as f32 * coverage);
+            spec_tex.1 += area[i] * f64::from(coverage);
+        }
+        let mut emit = mat.emission;
+        if emit_tex.is_some() {
+            emit *= mean(1, &|| {
+                let (tri, (b1, b2)) = point();
+                surface_value(tri, emit_tex, b1, b2)
+            });
+        }
+        let a = (area[i] * f64::from(texel_size) * f64::from(texel_size)) as f32 * coverage;
+        for side in 0..2 {
+            let k = bf.texel_base as usize + side * w * h + i;
+            out.area[k] = a;
+            out.center[k] = [p.x, p.y, p.z, 0.0];
+            out.albedo[k] = base.extend(0.0).into();
+            if side == 0 {
+                out.emission[k] = emit.extend(0.0).into();
+            }
+        }
+    }
+    spec_tex
+}
 
 /// Per texel of one chart side: the sums of the base-colour (times the vertex colour) and
 /// emissive texture values over the sample points that fall on the face where its alpha mask

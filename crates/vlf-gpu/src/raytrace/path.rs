@@ -545,19 +545,7 @@ impl GpuPathTracer {
         });
         let bind_group =
             |label: &str, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]| {
-                let entries: Vec<wgpu::BindGroupEntry> = buffers
-                    .iter()
-                    .enumerate()
-                    .map(|(i, b)| wgpu::BindGroupEntry {
-                        binding: i as u32,
-                        resource: b.as_entire_binding(),
-                    })
-                    .collect();
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(label),
-                    layout,
-                    entries: &entries,
-                })
+                crate::wgpu_util::buffer_bind_group(device, label, layout, buffers)
             };
         let globals_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("PathTracer::globals_bind_group"),

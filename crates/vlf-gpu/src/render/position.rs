@@ -85,17 +85,7 @@ impl PositionPass {
                     },
                 }),
             ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: self.stencil.then_some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-            }),
+            depth_stencil_attachment: Some(pass_three_depth(targets, self.stencil)),
             timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
@@ -181,17 +171,7 @@ impl AttributesPass {
                 keep(&targets.attributes_view[0]),
                 keep(&targets.attributes_view[1]),
             ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: self.stencil.then_some(wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                }),
-            }),
+            depth_stencil_attachment: Some(pass_three_depth(targets, self.stencil)),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
@@ -200,5 +180,24 @@ impl AttributesPass {
         pass.set_bind_group(0, globals, &[]);
         pass.set_bind_group(1, &self.bind_group, &[]);
         pass.draw(0..lf.triangle_count * 3, 0..1);
+    }
+}
+
+/// Pass 3's depth (and stencil, where it marks faces), read again by passes 4 and 4b: loaded
+/// and kept.
+fn pass_three_depth(
+    targets: &Targets,
+    stencil: bool,
+) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    wgpu::RenderPassDepthStencilAttachment {
+        view: &targets.depth_view,
+        depth_ops: Some(wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        }),
+        stencil_ops: stencil.then_some(wgpu::Operations {
+            load: wgpu::LoadOp::Load,
+            store: wgpu::StoreOp::Store,
+        }),
     }
 }

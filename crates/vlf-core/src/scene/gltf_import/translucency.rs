@@ -68,8 +68,10 @@ impl Importer<'_> {
         let mut eta = self.number(&ior, "ior", 1.5, el)?;
         if eta == 0.0 {
             eta = 1.0; // the spec's "no refraction" (infinitely thin)
-        } else if eta < 1.0 {
-            return Err(self.invalid(el, format!("{IOR} ior {eta} must be ≥ 1 (or 0)")));
+        } else if eta.is_nan() || eta < 1.0 {
+            // Below 1 (or not finite): the material importer warns and takes the extension's
+            // default, as here (`materials::read_transmission`).
+            eta = f64::from(crate::scene::DEFAULT_IOR);
         }
         let factor = self.number(&dt, "diffuseTransmissionFactor", 0.0, el)?;
         let color = self.color(&dt, "diffuseTransmissionColorFactor", Vec3::ONE, el)?;
