@@ -160,63 +160,60 @@ fn scan_directions(
     (k_max, binned_max, box_cells_max)
 }
 
-/// The plan for `scene` prepared as `prep` (not yet checked against the budget); `software`:
-/// the GPU path on a software adapter (whose driver lives in the process).
-pub fn plan_prepared(
-    scene: &Scene,
+/// What the propagation will hold at its peak, counted before it runs.
+struct Counts {
+    /// The GPU propagator's own plan (GPU path only).
+    gpu_plan: Option<BakePlan>,
+    mirror: MirrorCounts,
+    transport: usize,
+    k_max: u32,
+    binned_max: u64,
+    box_cells_max: u64,
+}
+
+/// The GPU path: the propagator's own plan (it bins every direction once, makes the chunks
+/// and the mirror tile index, and counts the reflect jobs). The CPU path: the mirror tile
+/// index and the reflect jobs counted as SpecularSetup::new makes them (glossy lobes walked,
+/// not normalised, nothing kept), and the bins and bounding boxes of every direction.
+fn counts(
     prep: &BakeScene,
     set: &DirectionSet,
     params: &BakeParams,
     gpu: bool,
-    software: bool,
     budget: &Budget,
-) -> MemoryPlan {
-    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
-    let tiles2 = u64::from(grid.tiles_per_side()).pow(2);
-    let tris = prep.triangles.len() as u64;
-    let faces = prep.faces.len() as u64;
-    let x = prep.texel_count() as u64;
-
-    // The GPU path: the propagator's own plan (it bins every direction once, makes the chunks
-    // and the mirror tile index, and counts the reflect jobs). The CPU path: the mirror tile
-    // index and the reflect jobs counted as SpecularSetup::new makes them (glossy lobes
-    // walked, not normalised, nothing kept), and the bins and bounding boxes of every
-    // direction.
-    let (gpu_plan, mirror, transport, k_max, binned_max, box_cells_max) = if gpu {
+    grid: &PsfGrid,
+) -> Counts {
+    if gpu {
         let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
         let plan = BakePlan::new(prep, set, params, limit, None);
         let binned_max = plan.direction_bytes.iter().map(|b| b.bin_tris / 4).max();
-        let (mirror, transport, k_max) =
-            (plan.mirror.clone(), plan.transport_directions, plan.k_max);
-        (
-            Some(plan),
-            mirror,
-            transport,
-            k_max,
-            binned_max.unwrap_or(0),
-            0,
-        )
+        Counts {
+            mirror: plan.mirror.clone(),
+            transport: plan.transport_directions,
+            k_max: plan.k_max,
+            binned_max: binned_max.unwrap_or(0),
+            box_cells_max: 0,
+            gpu_plan: Some(plan),
+        }
     } else {
         let (dirs, _quadrature) = reference::all_directions(prep, set, params);
         // Counted, not made (as the GPU plan does): the reflect jobs may be what does not fit.
-        let counted = SpecularSetup::counted(prep, set, &grid, &dirs);
+        let counted = SpecularSetup::counted(prep, set, grid, &dirs);
         let mirror = MirrorCounts::counted(counted.as_ref(), set.len(), dirs.len());
-        let (k_max, binned_max, box_cells_max) = scan_directions(prep, &dirs, &grid);
-        (None, mirror, dirs.len(), k_max, binned_max, box_cells_max)
-    };
-    // The lobe of one glossy face at a time (bounded by the jobs of the face with the most).
-    let glossy = prep
-        .lobes
-        .iter()
-        .any(|l| matches!(l, SpecularModel::Tiles { .. }));
-    let lobe_jobs = if glossy { mirror.face_jobs_max } else { 0 };
-    let tile_values = mirror.tile_values;
-    let index_words = mirror.index_words;
-    let jobs = mirror.reflect_jobs;
+        let (k_max, binned_max, box_cells_max) = scan_directions(prep, &dirs, grid);
+        Counts {
+            gpu_plan: None,
+            mirror,
+            transport: dirs.len(),
+            k_max,
+            binned_max,
+            box_cells_max,
+        }
+    }
+}
 
-    let enc = vlf_core::lightfield::DEFAULT_ENCODING.bytes_per_texel() as u64;
-    let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
-    let job_bytes = size_of::<ReflectJob>() as u64;
+/// The items that do not depend on the parameters: the process, the scene, a software driver.
+fn fixed_items(scene: &Scene, gpu: bool, software: bool) -> Vec<PlanItem> {
     let texture_texels: u64 = scene.textures.iter().map(|t| t.pixels.len() as u64).sum();
     let mut items = vec![
         item(
@@ -250,6 +247,173 @@ pub fn plan_prepared(
             1,
         ));
     }
+    items
+}
+
+/// The propagation's own host items on the GPU path (beside `gpu_items`, the device's).
+fn gpu_host_items(
+    plan: &BakePlan,
+    c: &Counts,
+    x: u64,
+    tris: u64,
+    tiles2: u64,
+    file: u64,
+) -> Vec<PlanItem> {
+    let (mirror, binned_max) = (&c.mirror, c.binned_max);
+    let (tile_values, jobs) = (mirror.tile_values, mirror.reflect_jobs);
+    let job_bytes = size_of::<ReflectJob>() as u64;
+    let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;
+    // The propagator bins one direction at a time and writes it to its chunk; the writes'
+    // staging copies live until the next submission, every UPLOAD_FLUSH_BYTES.
+    let upload_max = plan.direction_bytes.iter().map(|b| b.sum()).max();
+    let total: u64 = plan.chunks.iter().map(|c| c.bytes.sum()).sum();
+    let staging = total.min(vlf_gpu::bake::UPLOAD_FLUSH_BYTES + upload_max.unwrap_or(0));
+    vec![
+        item("texel centres (upload copy)", "host", x, 16, 1),
+        item("accumulators (read back)", "host", x, 32, 2),
+        item(
+            "tile values (unshot, next, total)",
+            "host",
+            tile_values,
+            16,
+            3,
+        ),
+        item(
+            "tile bins and starts (one direction)",
+            "host",
+            2 * (tiles2 + 1) + binned_max,
+            4,
+            1,
+        ),
+        item("projected triangles (one direction)", "host", tris, 36, 1),
+        item("upload staging (bins, items)", "host", staging, 1, 1),
+        item(
+            "reflect jobs (until the items are built)",
+            "host",
+            jobs,
+            job_bytes,
+            1,
+        ),
+        item(
+            "reflect items",
+            "host",
+            mirror.reflect_items(),
+            item_bytes,
+            1,
+        ),
+        item("encoded output file", "host", file, 1, 1),
+    ]
+}
+
+/// The propagation's host items on the CPU path.
+fn cpu_items(
+    params: &BakeParams,
+    c: &Counts,
+    x: u64,
+    tris: u64,
+    tiles2: u64,
+    file: u64,
+) -> Vec<PlanItem> {
+    let (mirror, k_max, binned_max, box_cells_max) =
+        (&c.mirror, c.k_max, c.binned_max, c.box_cells_max);
+    let (tile_values, index_words, jobs) =
+        (mirror.tile_values, mirror.index_words, mirror.reflect_jobs);
+    let job_bytes = size_of::<ReflectJob>() as u64;
+    let n2 = u64::from(params.resolution).pow(2);
+    let m2 = u64::from(params.tile).pow(2);
+    let crossings = (n2 * u64::from(k_max))
+        .min(m2 * binned_max)
+        .min(box_cells_max);
+    vec![
+        item("accumulators and texel faces", "host", x, 36, 1),
+        item(
+            "tile values (unshot, next, total)",
+            "host",
+            tile_values,
+            16,
+            3,
+        ),
+        item("tile index", "host", index_words, 4, 1),
+        item("reflect jobs", "host", jobs, job_bytes, 1),
+        item(
+            "ray crossing lists (one direction)",
+            "host",
+            crossings,
+            CROSSING_BYTES,
+            1,
+        ),
+        item(
+            "tile bins (one direction)",
+            "host",
+            tiles2 + 1 + binned_max,
+            4,
+            1,
+        ),
+        item("projected triangles (one direction)", "host", tris, 36, 1),
+        item("encoded output file", "host", file, 1, 1),
+    ]
+}
+
+/// The reflect jobs of the glossy face with the most: its lobe is held while they are made
+/// (one face at a time); 0 without glossy tiles.
+fn glossy_lobe_jobs(prep: &BakeScene, mirror: &MirrorCounts) -> u64 {
+    let glossy = (prep.lobes.iter()).any(|l| matches!(l, SpecularModel::Tiles { .. }));
+    if glossy { mirror.face_jobs_max } else { 0 }
+}
+
+/// Adds the allocator's overhead to `items` and returns the host and device sums, the sum of
+/// the first `fixed` items (with the overhead's share) and the largest device buffer.
+fn totals(items: &mut Vec<PlanItem>, fixed: usize) -> (u64, u64, u64, Option<PlanItem>) {
+    // Every item's count fits easily; saturate anyway so absurd inputs cannot wrap.
+    let sum = |items: &[PlanItem], place: &str| {
+        items
+            .iter()
+            .filter(|i| i.place == place)
+            .fold(0u64, |s, i| s.saturating_add(i.bytes))
+    };
+    // Heap fragmentation and freed-but-resident memory (measured: the peak resident size of
+    // CPU bakes of the shared scenes is within +6 % of the items above).
+    let overhead = sum(items, "host") / 10;
+    items.push(item(
+        "allocator overhead (10 % of the above)",
+        "host",
+        overhead,
+        1,
+        1,
+    ));
+    let host_bytes = sum(items, "host");
+    let device_bytes = sum(items, "gpu");
+    let fixed_bytes = items[..fixed].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
+    let largest_buffer = items
+        .iter()
+        .filter(|i| i.place == "gpu")
+        .map(PlanItem::largest_buffer)
+        .max_by_key(|i| i.bytes);
+    (host_bytes, device_bytes, fixed_bytes, largest_buffer)
+}
+
+/// The plan for `scene` prepared as `prep` (not yet checked against the budget); `software`:
+/// the GPU path on a software adapter (whose driver lives in the process).
+pub fn plan_prepared(
+    scene: &Scene,
+    prep: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    gpu: bool,
+    software: bool,
+    budget: &Budget,
+) -> MemoryPlan {
+    let grid = PsfGrid::new(params.resolution, params.tile).expect("validated params");
+    let tiles2 = u64::from(grid.tiles_per_side()).pow(2);
+    let tris = prep.triangles.len() as u64;
+    let faces = prep.faces.len() as u64;
+    let x = prep.texel_count() as u64;
+    let c = counts(prep, set, params, gpu, budget, &grid);
+    let lobe_jobs = glossy_lobe_jobs(prep, &c.mirror);
+    let (tile_values, index_words) = (c.mirror.tile_values, c.mirror.index_words);
+    let enc = vlf_core::lightfield::DEFAULT_ENCODING.bytes_per_texel() as u64;
+    let file = (x + tile_values) * enc + tris * 48 + faces * 80 + index_words * 4 + 16 * 1024;
+    let mut items = fixed_items(scene, gpu, software);
     // The items above do not depend on the parameters.
     let fixed = items.len();
     items.extend([
@@ -269,86 +433,14 @@ pub fn plan_prepared(
             3,
         ),
     ]);
-    if let Some(plan) = &gpu_plan {
-        let item_bytes = size_of::<vlf_gpu::layout::ReflectItem>() as u64;
-        // The propagator bins one direction at a time and writes it to its chunk; the writes'
-        // staging copies live until the next submission, every UPLOAD_FLUSH_BYTES.
-        let upload_max = plan.direction_bytes.iter().map(|b| b.sum()).max();
-        let total: u64 = plan.chunks.iter().map(|c| c.bytes.sum()).sum();
-        let staging = total.min(vlf_gpu::bake::UPLOAD_FLUSH_BYTES + upload_max.unwrap_or(0));
-        items.extend([
-            item("texel centres (upload copy)", "host", x, 16, 1),
-            item("accumulators (read back)", "host", x, 32, 2),
-            item(
-                "tile values (unshot, next, total)",
-                "host",
-                tile_values,
-                16,
-                3,
-            ),
-            item(
-                "tile bins and starts (one direction)",
-                "host",
-                2 * (tiles2 + 1) + binned_max,
-                4,
-                1,
-            ),
-            item("projected triangles (one direction)", "host", tris, 36, 1),
-            item("upload staging (bins, items)", "host", staging, 1, 1),
-            item(
-                "reflect jobs (until the items are built)",
-                "host",
-                jobs,
-                job_bytes,
-                1,
-            ),
-            item(
-                "reflect items",
-                "host",
-                mirror.reflect_items(),
-                item_bytes,
-                1,
-            ),
-            item("encoded output file", "host", file, 1, 1),
-        ]);
+    if let Some(plan) = &c.gpu_plan {
+        items.extend(gpu_host_items(plan, &c, x, tris, tiles2, file));
         items.extend(gpu_items(plan));
         if let Some(gp) = &params.final_gather {
             items.extend(gather_items(scene, prep, params, gp, tile_values, budget));
         }
     } else {
-        let n2 = u64::from(params.resolution).pow(2);
-        let m2 = u64::from(params.tile).pow(2);
-        let crossings = (n2 * u64::from(k_max))
-            .min(m2 * binned_max)
-            .min(box_cells_max);
-        items.extend([
-            item("accumulators and texel faces", "host", x, 36, 1),
-            item(
-                "tile values (unshot, next, total)",
-                "host",
-                tile_values,
-                16,
-                3,
-            ),
-            item("tile index", "host", index_words, 4, 1),
-            item("reflect jobs", "host", jobs, job_bytes, 1),
-            item(
-                "ray crossing lists (one direction)",
-                "host",
-                crossings,
-                CROSSING_BYTES,
-                1,
-            ),
-            item(
-                "tile bins (one direction)",
-                "host",
-                tiles2 + 1 + binned_max,
-                4,
-                1,
-            ),
-            item("projected triangles (one direction)", "host", tris, 36, 1),
-            item("encoded output file", "host", file, 1, 1),
-        ]);
+        items.extend(cpu_items(params, &c, x, tris, tiles2, file));
     }
     if lobe_jobs > 0 {
         items.push(item(
@@ -359,43 +451,19 @@ pub fn plan_prepared(
             1,
         ));
     }
-    // Every item's count fits easily; saturate anyway so absurd inputs cannot wrap.
-    let sum = |items: &[PlanItem], place: &str| {
-        items
-            .iter()
-            .filter(|i| i.place == place)
-            .fold(0u64, |s, i| s.saturating_add(i.bytes))
-    };
-    // Heap fragmentation and freed-but-resident memory (measured: the peak resident size of
-    // CPU bakes of the shared scenes is within +6 % of the items above).
-    let overhead = sum(&items, "host") / 10;
-    items.push(item(
-        "allocator overhead (10 % of the above)",
-        "host",
-        overhead,
-        1,
-        1,
-    ));
-    let host_bytes = sum(&items, "host");
-    let device_bytes = sum(&items, "gpu");
-    let fixed_bytes = items[..fixed].iter().map(|i| i.bytes).sum::<u64>() * 11 / 10;
-    let largest_buffer = items
-        .iter()
-        .filter(|i| i.place == "gpu")
-        .map(PlanItem::largest_buffer)
-        .max_by_key(|i| i.bytes);
+    let (host_bytes, device_bytes, fixed_bytes, largest_buffer) = totals(&mut items, fixed);
     MemoryPlan {
         path: if gpu { "gpu" } else { "cpu" },
         resolution: params.resolution,
         tile: params.tile,
         directions: set.len(),
-        transport_directions: transport,
+        transport_directions: c.transport,
         triangles: tris,
         faces,
         texels: x,
         tile_values,
-        k_max,
-        binned_max,
+        k_max: c.k_max,
+        binned_max: c.binned_max,
         items,
         host_bytes,
         fixed_bytes,
@@ -405,6 +473,6 @@ pub fn plan_prepared(
         over_budget: Vec::new(),
         lowered_from: None,
         plan_s: 0.0,
-        gpu: gpu_plan,
+        gpu: c.gpu_plan,
     }
 }

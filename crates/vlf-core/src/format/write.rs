@@ -14,7 +14,6 @@ use super::disk::{
 };
 use super::validate::{validate_geometry, validate_header_content, validate_shading};
 use super::{shading, tiles};
-use crate::hash;
 use crate::lightfield::{LightField, Radiance, RadianceEncoding};
 use crate::parallel;
 
@@ -59,6 +58,146 @@ fn radiance_bytes(r: &Radiance, enc: RadianceEncoding) -> Cow<'_, [u8]> {
     }
 }
 
+/// The sections of a file being encoded: their header entries and bodies, in file order.
+#[derive(Default)]
+struct Sections<'a> {
+    entries: Vec<SectionEntry>,
+    bodies: Vec<Cow<'a, [u8]>>,
+}
+
+impl<'a> Sections<'a> {
+    /// Adds section `name` (required) of `count` elements of `elem` bytes each.
+    fn add(
+        &mut self,
+        name: &str,
+        kind: u32,
+        count: usize,
+        elem: usize,
+        body: Cow<'a, [u8]>,
+    ) -> &mut SectionEntry {
+        self.entries.push(SectionEntry {
+            name: name.into(),
+            kind,
+            required: true,
+            offset: 0,
+            byte_len: body.len() as u64,
+            count: count as u64,
+            elem_size: elem as u32,
+            checksum: parallel::section_checksum(&body),
+        });
+        self.bodies.push(body);
+        self.entries.last_mut().expect("just pushed")
+    }
+
+    /// Adds section `name` (required) holding `items` as stored records.
+    fn add_pod<T: Pod>(&mut self, name: &str, kind: u32, items: Vec<T>) -> &mut SectionEntry {
+        let count = items.len();
+        self.add(
+            name,
+            kind,
+            count,
+            size_of::<T>(),
+            Cow::Owned(pod_section(items)),
+        )
+    }
+}
+
+/// Every section of `lf` with radiance in `enc`: geometry, shading, irradiance, then the
+/// optional ones the light field has (mirror tiles, masks and panes, per-corner attributes, the
+/// gather's sampling record). Errors as (element, reason).
+fn sections(lf: &LightField, enc: RadianceEncoding) -> Result<Sections<'_>, (String, String)> {
+    let mut s = Sections::default();
+    let tris: Vec<FileTriangle> = lf.triangles.iter().map(FileTriangle::from).collect();
+    let faces: Vec<FileFace> = lf.faces.iter().map(FileFace::from).collect();
+    s.add_pod(disk::SECTION_TRIANGLES, disk::KIND_TRIANGLE, tris);
+    s.add_pod(disk::SECTION_FACES, disk::KIND_FACE, faces);
+    let (materials, uvs, textures) = shading::pack(&lf.shading);
+    s.add_pod(disk::SECTION_MATERIALS, disk::KIND_MATERIAL, materials);
+    s.add_pod(disk::SECTION_UVS, disk::KIND_UVS, uvs);
+    s.add_pod(disk::SECTION_TEXTURES, disk::KIND_TEXTURE, textures);
+    // Always f16 (checked by validate_shading): borrowed as stored.
+    s.add(
+        disk::SECTION_TEXELS,
+        disk::KIND_TEXELS,
+        lf.shading.texels.len(),
+        disk::TEXEL_BYTES,
+        Cow::Borrowed(lf.shading.texels.as_bytes()),
+    );
+    // Light values are finite by construction (`Radiance` cannot hold NaN or infinity).
+    s.add(
+        disk::SECTION_IRRADIANCE,
+        disk::KIND_RADIANCE,
+        lf.irradiance.len(),
+        enc.bytes_per_texel(),
+        radiance_bytes(&lf.irradiance, enc),
+    );
+    if let Some(t) = &lf.tiles {
+        let words = tiles::pack(&t.index);
+        tiles::validate(&t.index, lf.faces.len(), t.radiance.len())
+            .map_err(|r| ("tile index".to_string(), r))?;
+        s.add_pod(disk::SECTION_TILE_INDEX, disk::KIND_TILE_INDEX, words);
+        let vals = radiance_bytes(&t.radiance, enc);
+        let count = vals.len() / enc.bytes_per_texel();
+        s.add(
+            disk::SECTION_TILE_RADIANCE,
+            disk::KIND_RADIANCE,
+            count,
+            enc.bytes_per_texel(),
+            vals,
+        );
+    }
+    if shading::has_surfaces(&lf.shading) {
+        let recs: Vec<shading::FileSurface> = (lf.shading.materials.iter())
+            .map(shading::FileSurface::from)
+            .collect();
+        s.add_pod(disk::SECTION_SURFACES, disk::KIND_SURFACE, recs);
+    }
+    if !lf.shading.alpha.is_empty() {
+        let bytes: Vec<u8> = lf
+            .shading
+            .alpha
+            .iter()
+            .flat_map(|a| a.to_le_bytes())
+            .collect();
+        let n = lf.shading.alpha.len();
+        s.add(
+            disk::SECTION_TEXTURE_ALPHA,
+            disk::KIND_TEXTURE_ALPHA,
+            n,
+            2,
+            Cow::Owned(bytes),
+        );
+    }
+    // The per-corner attributes, where the scene has them (required: a reader that does not
+    // know them cannot render the file right).
+    let attrs = shading::pack_attributes(&lf.shading);
+    if let Some(uvs1) = attrs.uvs1 {
+        s.add_pod(disk::SECTION_UVS1, disk::KIND_UVS1, uvs1);
+    }
+    if let Some(normals) = attrs.normals {
+        s.add_pod(disk::SECTION_NORMALS, disk::KIND_CORNERS, normals);
+    }
+    if let Some(colors) = attrs.colors {
+        s.add_pod(disk::SECTION_COLORS, disk::KIND_CORNERS, colors);
+    }
+    if let Some(texcoords) = attrs.texcoords {
+        s.add_pod(
+            disk::SECTION_MATERIAL_TEXCOORDS,
+            disk::KIND_MATERIAL_TEXCOORDS,
+            texcoords,
+        );
+    }
+    if let Some(rec) = (lf.params.final_gather.as_ref()).and_then(FileGatherSampling::of) {
+        s.add_pod(
+            disk::SECTION_GATHER_SAMPLING,
+            disk::KIND_GATHER_SAMPLING,
+            vec![rec],
+        )
+        .required = false;
+    }
+    Ok(s)
+}
+
 pub(super) fn encode<'a>(
     lf: &'a LightField,
     enc: RadianceEncoding,
@@ -75,225 +214,11 @@ pub(super) fn encode<'a>(
         .map_err(content)?;
     validate_shading(&lf.shading, lf.triangles.len()).map_err(content)?;
 
-    let tris: Vec<FileTriangle> = lf.triangles.iter().map(FileTriangle::from).collect();
-    let faces: Vec<FileFace> = lf.faces.iter().map(FileFace::from).collect();
-    let tri_bytes = pod_section(tris);
-    let face_bytes = pod_section(faces);
-    // Light values are finite by construction (`Radiance` cannot hold NaN or infinity).
-    let irr_bytes = radiance_bytes(&lf.irradiance, enc);
-    let (materials, uvs, textures) = shading::pack(&lf.shading);
-    let (n_mat, n_uvs, n_tex) = (materials.len(), uvs.len(), textures.len());
-    let mat_bytes = pod_section(materials);
-    let uv_bytes = pod_section(uvs);
-    let tex_bytes = pod_section(textures);
-    // Always f16 (checked by validate_shading): borrowed as stored.
-    let texel_bytes = lf.shading.texels.as_bytes();
-
-    let tiles = match &lf.tiles {
-        Some(t) => {
-            let words = tiles::pack(&t.index);
-            tiles::validate(&t.index, lf.faces.len(), t.radiance.len())
-                .map_err(|r| content(("tile index".into(), r)))?;
-            Some((pod_section(words), radiance_bytes(&t.radiance, enc)))
-        }
-        None => None,
-    };
-    let entry =
-        |name: &str, kind, count: usize, elem: usize, bytes: &[u8], checksum| SectionEntry {
-            name: name.into(),
-            kind,
-            required: true,
-            offset: 0,
-            byte_len: bytes.len() as u64,
-            count: count as u64,
-            elem_size: elem as u32,
-            checksum,
-        };
-    let mut sections = vec![
-        entry(
-            disk::SECTION_TRIANGLES,
-            disk::KIND_TRIANGLE,
-            lf.triangles.len(),
-            size_of::<FileTriangle>(),
-            &tri_bytes,
-            hash::section_checksum(&tri_bytes),
-        ),
-        entry(
-            disk::SECTION_FACES,
-            disk::KIND_FACE,
-            lf.faces.len(),
-            size_of::<FileFace>(),
-            &face_bytes,
-            hash::section_checksum(&face_bytes),
-        ),
-        entry(
-            disk::SECTION_MATERIALS,
-            disk::KIND_MATERIAL,
-            n_mat,
-            size_of::<shading::FileMaterial>(),
-            &mat_bytes,
-            hash::section_checksum(&mat_bytes),
-        ),
-        entry(
-            disk::SECTION_UVS,
-            disk::KIND_UVS,
-            n_uvs,
-            size_of::<shading::FileUvs>(),
-            &uv_bytes,
-            hash::section_checksum(&uv_bytes),
-        ),
-        entry(
-            disk::SECTION_TEXTURES,
-            disk::KIND_TEXTURE,
-            n_tex,
-            size_of::<shading::FileTexture>(),
-            &tex_bytes,
-            hash::section_checksum(&tex_bytes),
-        ),
-        entry(
-            disk::SECTION_TEXELS,
-            disk::KIND_TEXELS,
-            lf.shading.texels.len(),
-            disk::TEXEL_BYTES,
-            texel_bytes,
-            parallel::section_checksum(texel_bytes),
-        ),
-        entry(
-            disk::SECTION_IRRADIANCE,
-            disk::KIND_RADIANCE,
-            lf.irradiance.len(),
-            enc.bytes_per_texel(),
-            &irr_bytes,
-            parallel::section_checksum(&irr_bytes),
-        ),
-    ];
-    let mut bodies = vec![
-        Cow::Owned(tri_bytes),
-        Cow::Owned(face_bytes),
-        Cow::Owned(mat_bytes),
-        Cow::Owned(uv_bytes),
-        Cow::Owned(tex_bytes),
-        Cow::Borrowed(texel_bytes),
-        irr_bytes,
-    ];
-    if let Some((idx_bytes, vals)) = tiles {
-        sections.push(entry(
-            disk::SECTION_TILE_INDEX,
-            disk::KIND_TILE_INDEX,
-            idx_bytes.len() / 4,
-            4,
-            &idx_bytes,
-            hash::section_checksum(&idx_bytes),
-        ));
-        sections.push(entry(
-            disk::SECTION_TILE_RADIANCE,
-            disk::KIND_RADIANCE,
-            vals.len() / enc.bytes_per_texel(),
-            enc.bytes_per_texel(),
-            &vals,
-            parallel::section_checksum(&vals),
-        ));
-        bodies.push(Cow::Owned(idx_bytes));
-        bodies.push(vals);
-    }
-    if shading::has_surfaces(&lf.shading) {
-        let recs: Vec<shading::FileSurface> = lf
-            .shading
-            .materials
-            .iter()
-            .map(shading::FileSurface::from)
-            .collect();
-        let n = recs.len();
-        let bytes = pod_section(recs);
-        sections.push(entry(
-            disk::SECTION_SURFACES,
-            disk::KIND_SURFACE,
-            n,
-            size_of::<shading::FileSurface>(),
-            &bytes,
-            hash::section_checksum(&bytes),
-        ));
-        bodies.push(Cow::Owned(bytes));
-    }
-    if !lf.shading.alpha.is_empty() {
-        let bytes: Vec<u8> = lf
-            .shading
-            .alpha
-            .iter()
-            .flat_map(|a| a.to_le_bytes())
-            .collect();
-        sections.push(entry(
-            disk::SECTION_TEXTURE_ALPHA,
-            disk::KIND_TEXTURE_ALPHA,
-            lf.shading.alpha.len(),
-            2,
-            &bytes,
-            hash::section_checksum(&bytes),
-        ));
-        bodies.push(Cow::Owned(bytes));
-    }
-    // The per-corner attributes, where the scene has them (required: a reader that does not
-    // know them cannot render the file right).
-    let attrs = shading::pack_attributes(&lf.shading);
-    let optional: [(&str, u32, usize, Option<Vec<u8>>); 4] = [
-        (
-            disk::SECTION_UVS1,
-            disk::KIND_UVS1,
-            size_of::<shading::FileUvs>(),
-            attrs.uvs1.map(pod_section),
-        ),
-        (
-            disk::SECTION_NORMALS,
-            disk::KIND_CORNERS,
-            size_of::<shading::FileCorners>(),
-            attrs.normals.map(pod_section),
-        ),
-        (
-            disk::SECTION_COLORS,
-            disk::KIND_CORNERS,
-            size_of::<shading::FileCorners>(),
-            attrs.colors.map(pod_section),
-        ),
-        (
-            disk::SECTION_MATERIAL_TEXCOORDS,
-            disk::KIND_MATERIAL_TEXCOORDS,
-            4,
-            attrs.texcoords.map(pod_section),
-        ),
-    ];
-    for (name, kind, elem, bytes) in optional {
-        if let Some(bytes) = bytes {
-            sections.push(entry(
-                name,
-                kind,
-                bytes.len() / elem,
-                elem,
-                &bytes,
-                hash::section_checksum(&bytes),
-            ));
-            bodies.push(Cow::Owned(bytes));
-        }
-    }
-    if let Some(rec) = lf
-        .params
-        .final_gather
-        .as_ref()
-        .and_then(FileGatherSampling::of)
-    {
-        let bytes = pod_section(vec![rec]);
-        sections.push(SectionEntry {
-            required: false,
-            ..entry(
-                disk::SECTION_GATHER_SAMPLING,
-                disk::KIND_GATHER_SAMPLING,
-                1,
-                size_of::<FileGatherSampling>(),
-                &bytes,
-                hash::section_checksum(&bytes),
-            )
-        });
-        bodies.push(Cow::Owned(bytes));
-    }
+    let sections = sections(lf, enc).map_err(content)?;
+    let Sections {
+        entries: sections,
+        bodies,
+    } = sections;
     let mut header = FileHeader {
         params: FileParams::from(&lf.params),
         directions: FileDirections::from(&lf.directions),
