@@ -1190,17 +1190,24 @@ fn unsupported_required_extension() {
             format!("unsupported required extension {ext}: {}", path.display())
         );
     }
-    // Accepted ones load (with a warning where their content is ignored).
+    // Accepted ones load, with a warning where their content is ignored (clearcoat) and none
+    // where the importer reads it (volume, transmission: panes and subsurface).
     let doc = b.document(
         Some(""),
-        &format!(r#"{rest},"extensionsRequired":["KHR_texture_transform","KHR_materials_volume"]"#),
+        &format!(
+            r#"{rest},"extensionsRequired":["KHR_texture_transform","KHR_materials_volume",
+                "KHR_materials_transmission","KHR_materials_clearcoat"]"#
+        ),
     );
     let s = scene::load(&write(&dir, "ok.gltf", doc)).unwrap();
-    assert!(
+    let required = |ext: &str| {
         s.warnings
             .iter()
-            .any(|w| w.contains("KHR_materials_volume"))
-    );
+            .any(|w| w.contains("required extension") && w.contains(ext))
+    };
+    assert!(required("KHR_materials_clearcoat"), "{:?}", s.warnings);
+    assert!(!required("KHR_materials_volume"), "{:?}", s.warnings);
+    assert!(!required("KHR_materials_transmission"), "{:?}", s.warnings);
 }
 
 #[test]

@@ -183,13 +183,8 @@ impl Importer<'_> {
             // Transmission and its IOR are read (and a pane's volume warned about) in
             // `read_transmission`; IOR, diffuse transmission, volume and volume scatter in
             // `translucency` (docs/SUBSURFACE.md).
-            let modelled = [
-                "KHR_materials_emissive_strength",
-                "KHR_materials_transmission",
-                "KHR_materials_ior",
-            ];
             for name in exts.keys() {
-                if !(modelled.contains(&name.as_str()) || super::translucency::handles(name)) {
+                if !is_modelled(name) {
                     self.warn(format!("{el}: extension {} is ignored", short(name)));
                 }
             }
@@ -391,6 +386,19 @@ impl Importer<'_> {
         self.default_material = Some(i);
         i
     }
+}
+
+/// Whether material extension `name` is read by the importer (here: emissive strength,
+/// transmission and its IOR; `translucency`: IOR, diffuse transmission, volume, volume
+/// scatter), so that neither a material's nor `extensionsRequired`'s warning calls it ignored.
+pub(super) fn is_modelled(name: &str) -> bool {
+    [
+        "KHR_materials_emissive_strength",
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+    ]
+    .contains(&name)
+        || super::translucency::handles(name)
 }
 
 /// Decodes PNG/JPEG bytes with the gltf crate's image decoder.

@@ -185,7 +185,7 @@ impl Importer<'_> {
         }
         let required = self.root.extensions_required.clone();
         for ext in &required {
-            if ext.starts_with("KHR_materials_") && ext != "KHR_materials_emissive_strength" {
+            if ext.starts_with("KHR_materials_") && !materials::is_modelled(ext) {
                 self.warn(format!(
                     "required extension {} is not implemented: its material properties are ignored",
                     short(ext)
