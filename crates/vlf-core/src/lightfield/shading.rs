@@ -252,18 +252,7 @@ impl Shading {
         if non_finite > 0 {
             log::warn!("{non_finite} texture texels are not finite; stored as 0");
         }
-        let materials: Vec<SurfaceMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| {
-                let mut s = SurfaceMaterial::from_material(m);
-                s.alpha_nearest = s.masks()
-                    && m.base_color_texture
-                        .and_then(|t| scene.textures.get(t.index as usize))
-                        .is_some_and(|t| t.filter == FilterMode::Nearest);
-                s
-            })
-            .collect();
+        let materials = surface_materials(scene);
         let alpha = if materials.iter().any(SurfaceMaterial::masks) {
             let mut a = Vec::with_capacity(values.len());
             for t in &scene.textures {
@@ -589,6 +578,24 @@ impl Shading {
         let bottom = texel(i0, j1).lerp(texel(i1, j1), fx);
         top.lerp(bottom, fy)
     }
+}
+
+/// The file's materials of `scene`'s: [`SurfaceMaterial::from_material`] each, a mask reading
+/// its texture NEAREST where the base-colour texture's sampler says so (what both the light
+/// field and the bake's [`super::mask::AlphaMasks::from_scene`] store).
+pub fn surface_materials(scene: &Scene) -> Vec<SurfaceMaterial> {
+    scene
+        .materials
+        .iter()
+        .map(|m| {
+            let mut s = SurfaceMaterial::from_material(m);
+            s.alpha_nearest = s.masks()
+                && m.base_color_texture
+                    .and_then(|t| scene.textures.get(t.index as usize))
+                    .is_some_and(|t| t.filter == FilterMode::Nearest);
+            s
+        })
+        .collect()
 }
 
 /// A texture alpha as the light field stores it ([`Shading::alpha`]): clamped to [0, 1] (NaN as

@@ -156,18 +156,7 @@ impl AlphaMasks {
     /// The masks of an imported scene's triangles (scene order), with the alphas the light
     /// field will store ([`AlphaMasks::from_shading`] of the baked light field gives the same).
     pub fn from_scene(scene: &Scene) -> Self {
-        let materials: Vec<SurfaceMaterial> = scene
-            .materials
-            .iter()
-            .map(|m| {
-                let mut s = SurfaceMaterial::from_material(m);
-                s.alpha_nearest = s.masks()
-                    && m.base_color_texture
-                        .and_then(|t| scene.textures.get(t.index as usize))
-                        .is_some_and(|t| t.filter == crate::scene::FilterMode::Nearest);
-                s
-            })
-            .collect();
+        let materials = super::shading::surface_materials(scene);
         if !materials.iter().any(SurfaceMaterial::masks) {
             return AlphaMasks::default();
         }
