@@ -635,3 +635,118 @@ fn points_above_touching_boxes_are_closed() {
     assert!(open.is_open(c(0.0, 1.0, 0.5), Vec3::NEG_Y));
     assert!(open.is_open(c(1.5, 1.0, 0.0), Vec3::NEG_Y));
 }
+
+/// A closed black room under a uniform sky with a square skylight in its ceiling: the floor's
+/// irradiance is the sky seen through the opening, `emitter_irradiance` of a rectangle of the
+/// sky's radiance, and nothing else (black surfaces reflect nothing). Per texel: rms relative
+/// error and the mean ratio to the quadrature, for `sampling`.
+fn skylight_floor(sampling: vlf_core::lightfield::Sampling) -> (f32, f32, f32) {
+    let mut b = SceneBuilder::new();
+    let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
+    let (h, a) = (0.8, 0.3);
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // The floor (facing up) and four walls.
+    b.quad(
+        [
+            v(-1.0, 0.0, 1.0),
+            v(1.0, 0.0, 1.0),
+            v(1.0, 0.0, -1.0),
+            v(-1.0, 0.0, -1.0),
+        ],
+        black,
+    );
+    for (p, q) in [((-1.0, -1.0), (1.0, -1.0)), ((1.0, -1.0), (1.0, 1.0))]
+        .into_iter()
+        .chain([((1.0, 1.0), (-1.0, 1.0)), ((-1.0, 1.0), (-1.0, -1.0))])
+    {
+        b.quad(
+            [
+                v(p.0, 0.0, p.1),
+                v(q.0, 0.0, q.1),
+                v(q.0, h, q.1),
+                v(p.0, h, p.1),
+            ],
+            black,
+        );
+    }
+    // The ceiling: four panels round the opening (facing down).
+    for (x0, x1, z0, z1) in [
+        (-1.0, 1.0, a, 1.0),
+        (-1.0, 1.0, -1.0, -a),
+        (-1.0, -a, -a, a),
+        (a, 1.0, -a, a),
+    ] {
+        b.quad(
+            [v(x0, h, z0), v(x1, h, z0), v(x1, h, z1), v(x0, h, z1)],
+            black,
+        );
+    }
+    let scene = b.build("skylight room");
+    let sky = Vec3::splat(1.0);
+    let gp = GatherParams {
+        direct_rays: 16,
+        indirect_rays: 256,
+        sampling,
+        ..gp(0.08, 0.16, 0, 256)
+    };
+    let g = bake_and_gather(&scene, sky, &gp, 0);
+    let floor = face_with_normal(&scene, Vec3::Y);
+    let (mut sq, mut sum_e, mut sum_q, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    let mut worst = 0.0f32;
+    for (_, c, e) in texels(&g, floor, 0) {
+        let q = emitter_irradiance(scene.to_vlf.inverse(c), 1.0, (-a, a, -a, a), h);
+        let r = (e.x - q) / q;
+        sq += f64::from(r * r);
+        worst = worst.max(r.abs());
+        sum_e += f64::from(e.x);
+        sum_q += f64::from(q);
+        n += 1;
+    }
+    assert!(n > 100, "{n} floor texels");
+    ((sq / n as f64).sqrt() as f32, (sum_e / sum_q) as f32, worst)
+}
+
+#[test]
+fn a_skylight_is_found_by_the_sky_guide_with_a_fraction_of_the_cosine_rays_noise() {
+    use vlf_core::lightfield::Sampling;
+    let (rms_cos, mean_cos, _) = skylight_floor(Sampling::FIXED);
+    let guided = Sampling {
+        guided: true,
+        ..Sampling::FIXED
+    };
+    let (rms_guided, mean_guided, _) = skylight_floor(guided);
+    let adaptive = Sampling {
+        guided: true,
+        target_error: 0.05,
+        max_rounds: 8,
+    };
+    let (rms_adaptive, mean_adaptive, worst) = skylight_floor(adaptive);
+    eprintln!(
+        "rms relative error: cosine {rms_cos:.4} (mean {mean_cos:.4}), guided {rms_guided:.4} \
+         ({mean_guided:.4}), adaptive {rms_adaptive:.4} ({mean_adaptive:.4}, worst {worst:.4})"
+    );
+    // Unbiased all three: the floor's mean near the quadrature's (the cosine rays' mean over
+    // ~280 texels at rms 1.0 has a standard error of 6 %; measured 1.010, 0.987, 0.987).
+    assert!(
+        (mean_cos - 1.0).abs() < 0.15,
+        "cosine mean ratio {mean_cos}"
+    );
+    for m in [mean_guided, mean_adaptive] {
+        assert!((m - 1.0).abs() < 0.03, "mean ratio {m}");
+    }
+    // The opening fills at most 12 % of the floor's cosine-weighted hemisphere: 16 cosine rays
+    // find it about twice. The guide (the sky mask of the indirect grid's texels, refined at
+    // the opening's rim) sends three quarters of them there. Measured (2-core VM, any thread
+    // count: the result is deterministic): rms 1.00 cosine, 0.33 guided, 0.14 adaptive.
+    assert!(
+        rms_guided < 0.5 * rms_cos,
+        "guided {rms_guided} vs cosine {rms_cos}"
+    );
+    // Adaptive rounds stop at 5 % estimated error, never on rounds that found nothing, and
+    // each round's guide adds where the texel's own rays found the opening.
+    assert!(
+        rms_adaptive < 0.6 * rms_guided,
+        "adaptive {rms_adaptive} vs guided {rms_guided}"
+    );
+    assert!(rms_adaptive < 0.2, "adaptive {rms_adaptive}");
+}

@@ -115,6 +115,9 @@ impl GatherStats {
     }
 }
 
+/// Rays of a guided texel's direct estimator that must have found light before its estimated
+/// error may stop it (a round in which every ray missed the opening estimates no spread).
+const MIN_FOUND: u32 = 4;
 /// Texels handed to a worker at a time.
 const CHUNK: usize = 64;
 /// Stream selectors of the per-texel random generators (`Rng::for_path(SEED, texel, stream)`;
@@ -186,26 +189,87 @@ impl Gatherer<'_> {
         Some(out)
     }
 
-    /// Where texel `t` sees the sky: `rays` cosine rays (occlusion only), 1 in each cell a ray
-    /// left the scene through; `None` without an open point or a ray that left.
-    fn sky_cells(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<Cells> {
+    /// Where texel `t` sees the sky ([`guide::SkyMask`]), by occlusion rays in two steps:
+    /// `rays` stratified cosine rays over the [`guide::G`]-cell grid, then, unless every one
+    /// of them left the scene, one ray in each [`guide::SKY_G`]-cell quarter of the cells
+    /// that saw the sky and of their four neighbours (φ wraps round), where an opening's rim
+    /// lies. `None` without an open point or a ray that left.
+    fn sky_mask(&self, pts: &TexelPoints, t: usize, rays: u32) -> Option<guide::SkyMask> {
+        use guide::{G, SKY_G};
         let mut rng = Rng::for_path(SEED, t as u32, STREAM_SKY_GUIDE);
         let mut points = Vec::with_capacity(rays as usize);
         let n = pts.sample(t, rays, &mut rng, &mut points);
+        let cells = (SKY_G * SKY_G) as usize;
+        let (mut hits, mut sent) = (vec![0u32; cells], vec![0u32; cells]);
+        let mut lit = [false; guide::CELLS];
+        let cast = |q: GatherPoint, u: Vec2, hits: &mut [u32], sent: &mut [u32]| {
+            let c = guide::cell_in(u, SKY_G);
+            sent[c] += 1;
+            let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
+            let open = !below(q, n, dir)
+                && through::ray_transmittance(self.ps, offset_ray_origin(q.p, n), dir)
+                    != Vec3::ZERO;
+            hits[c] += u32::from(open);
+            open
+        };
         let strata = shuffled_strata(rays, &mut rng);
-        let mut cells = Cells::default();
-        let mut any = false;
         for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
-            let dir = sampling::to_world(sampling::cosine_hemisphere(u), q.n);
-            if !below(q, n, dir)
-                && through::ray_transmittance(self.ps, offset_ray_origin(q.p, n), dir) != Vec3::ZERO
-            {
-                cells.add(u, 1.0);
-                any = true;
+            if cast(q, u, &mut hits, &mut sent) {
+                lit[guide::cell_of(u)] = true;
             }
         }
-        any.then_some(cells)
+        let lit_count = lit.iter().filter(|&&l| l).count();
+        if lit_count == 0 {
+            return None;
+        }
+        if lit_count < guide::CELLS {
+            let g = G as i32;
+            let near = |c: usize| {
+                let (x, y) = ((c as u32 % G) as i32, (c as u32 / G) as i32);
+                [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)]
+                    .iter()
+                    .any(|&(dx, dy)| {
+                        let nx = x + dx;
+                        (0..g).contains(&nx) && lit[((y + dy).rem_euclid(g) * g + nx) as usize]
+                    })
+            };
+            let refine: Vec<usize> = (0..guide::CELLS).filter(|&c| near(c)).collect();
+            let mut more = Vec::with_capacity(refine.len() * 4);
+            pts.sample(t, refine.len() as u32 * 4, &mut rng, &mut more);
+            if !more.is_empty() {
+                for (k, &c) in refine.iter().enumerate() {
+                    let (x, y) = (c as u32 % G, c as u32 / G);
+                    for s in 0..4u32 {
+                        let corner = Vec2::new((2 * x + s % 2) as f32, (2 * y + s / 2) as f32);
+                        let u =
+                            ((corner + rng.next_2d()) / SKY_G as f32).min(Vec2::splat(0.999_999_9));
+                        let q = more[(4 * k + s as usize) % more.len()];
+                        cast(q, u, &mut hits, &mut sent);
+                    }
+                }
+            }
+        }
+        // A refined cell's quarters hold their own rays' share; any other cell's share (its
+        // one stratified ray) holds for all four of its quarters.
+        let mut w = vec![0.0f32; cells];
+        for c in 0..guide::CELLS as u32 {
+            let (x, y) = (c % G, c / G);
+            let quarters = (0..4u32).map(|s| ((2 * y + s / 2) * SKY_G + 2 * x + s % 2) as usize);
+            let (h, n, refined) = quarters.clone().fold((0, 0, true), |(h, n, r), f| {
+                (h + hits[f], n + sent[f], r && sent[f] > 0)
+            });
+            for f in quarters {
+                w[f] = if refined {
+                    hits[f] as f32 / sent[f] as f32
+                } else if n > 0 {
+                    h as f32 / n as f32
+                } else {
+                    0.0
+                };
+            }
+        }
+        Some(guide::SkyMask { w })
     }
 
     /// The radiance of the field seen from point `q` (geometric normal `n`) along square point
@@ -304,15 +368,19 @@ impl Gatherer<'_> {
     }
 
     /// [`Gatherer::direct`] by rounds of `light_samples` + `direct_rays` samples, with three
-    /// quarters of the rays drawn from `guide` when there is one (`gp.sampling.guided`), until
-    /// the estimated standard error is below `gp.sampling.target_error` × (the estimate +
-    /// `floor`, the texel's indirect light) or `max_rounds` rounds ran.
+    /// quarters of the rays drawn from each round's guide when there is one
+    /// (`gp.sampling.guided`: [`guide::round_guide`] of `sky`, the blended sky mask of the
+    /// indirect grid round the texel), until the estimated standard error is below
+    /// `gp.sampling.target_error` × (the estimate + `floor`, the texel's indirect light) and,
+    /// where the mask says the texel sees the sky, its rays found light [`MIN_FOUND`] times;
+    /// or `max_rounds` rounds ran. Each round is an unbiased estimate under its own guide;
+    /// the texel's value is their mean.
     fn direct_texel(
         &self,
         pts: &TexelPoints,
         t: usize,
         gp: &GatherParams,
-        guide: Option<&Guide>,
+        sky: Option<&[f32]>,
         floor: f32,
     ) -> Option<DirectTexel> {
         let lights = &self.ps.lights;
@@ -325,12 +393,13 @@ impl Gatherer<'_> {
         } else {
             (0, gp.direct_rays)
         };
-        let guide = guide.filter(|_| n_b >= 2);
-        // Cosine rays first, then the guided ones.
-        let n_u = if guide.is_some() {
-            (n_b / 4).max(1)
+        // Guided: each round's guide is the indirect grid's sky mask and where this texel's
+        // own rays of the rounds before found light.
+        let learn = gp.sampling.guided && n_b >= 2;
+        let mut own = if learn {
+            vec![0.0f32; guide::SKY_CELLS]
         } else {
-            n_b
+            Vec::new()
         };
         let (fl, fb) = (n_l as f32, n_b as f32);
         let s = &gp.sampling;
@@ -339,10 +408,22 @@ impl Gatherer<'_> {
         } else {
             1
         };
-        let (mut total, mut rounds, mut rays) = (Vec3::ZERO, 0u32, 0u32);
+        let (mut total, mut rounds, mut rays, mut found) = (Vec3::ZERO, 0u32, 0u32, 0u32);
         let (mut m_l, mut m_b, mut m_s) =
             (Moments::default(), Moments::default(), Moments::default());
         while rounds < max_rounds {
+            let guide = if learn {
+                guide::round_guide(sky, &own)
+            } else {
+                None
+            };
+            let guide = guide.as_ref();
+            // Cosine rays first, then the guided ones.
+            let n_u = if guide.is_some() {
+                (n_b / 4).max(1)
+            } else {
+                n_b
+            };
             points.clear();
             let n = pts.sample(t, count, &mut rng, &mut points);
             if points.is_empty() {
@@ -372,8 +453,7 @@ impl Gatherer<'_> {
                 let mut value = Vec3::ZERO;
                 if cos_r > 0.0 && cos_l > 0.0 && !below(q, n, wi) {
                     let pdf_l = e.pdf / e.area * d2 / cos_l;
-                    let m =
-                        guide::mixture(guide, n_u, n_b, guide::cell_of(guide::square_of(wi, q.n)));
+                    let m = guide::mixture(guide, n_u, n_b, guide::square_of(wi, q.n));
                     let pdf_b = m * cos_r * std::f32::consts::FRAC_1_PI;
                     let w = sampling::power_heuristic(fl * pdf_l, fb * pdf_b);
                     let origin = offset_ray_origin(p, n);
@@ -404,10 +484,16 @@ impl Gatherer<'_> {
                     }
                     _ => strata.point(k, &mut rng),
                 };
-                let m = guide::mixture(guide, n_u, n_b, guide::cell_of(u));
+                let m = guide::mixture(guide, n_u, n_b, u);
                 let value = self.direct_ray(q, n, u, m, fl, fb);
                 sum += value;
                 m_b.add(luminance(value) * fb);
+                if value != Vec3::ZERO {
+                    found += 1;
+                    if learn {
+                        own[guide::cell_in(u, guide::SKY_G)] += 1.0;
+                    }
+                }
             }
             rays += n_l + n_b;
             // Delta lights (suns, point and spot lights): one shadow ray per point and light.
@@ -439,7 +525,10 @@ impl Gatherer<'_> {
                 let se = (m_l.variance_of_mean() + m_b.variance_of_mean() + m_s.variance_of_mean())
                     .sqrt();
                 let value = luminance(total / rounds as f32) + floor;
-                if se <= s.target_error * value {
+                // Rays that found nothing measure no spread: a texel whose guide says it sees
+                // the sky does not stop before its rays found light a few times.
+                let evidence = sky.is_none() || found >= MIN_FOUND;
+                if evidence && se <= s.target_error * value {
                     break;
                 }
             }

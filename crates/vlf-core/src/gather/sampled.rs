@@ -7,7 +7,7 @@ use glam::{Vec3, Vec4};
 use serde::Serialize;
 
 use super::field::{Field, Quad, Tiles, chart_bilinear};
-use super::guide::{Cells, Guide};
+use super::guide::{Cells, Guide, SkyMask};
 use super::{
     CHUNK, Converged, DirectTexel, Gathered, Gatherer, Grid, Grids, IndirectTexel, TexelPoints,
     assemble, denoise, luminance,
@@ -18,7 +18,8 @@ use crate::scene::Scene;
 
 /// The final gather with guided and adaptive sampling (`gp.sampling`), in four steps:
 /// 1. where each texel of the indirect grid sees the sky (a quarter of its rays, cosine,
-///    occlusion only): the direct estimator's guide;
+///    occlusion only, then four rays in each quarter cell round the cells that saw it): the
+///    direct estimator's guide;
 /// 2. direct light on the stored atlas, guided, by rounds until its estimated error is below
 ///    the target;
 /// 3. where the propagation kept its first bounce, the field the gather rays read becomes the
@@ -68,9 +69,9 @@ pub(super) fn final_gather_sampled(
     let coarse = &grids.indirect;
     let coarse_pts = coarse.points(scene, &ps.bvh);
     // 1. The sky guide.
-    let sky_cells: Vec<Option<Cells>> = if s.guided && field.sky != Vec3::ZERO {
+    let sky_masks: Vec<Option<SkyMask>> = if s.guided && field.sky != Vec3::ZERO {
         crate::par::map(coarse.atlas.texel_count(), threads, CHUNK, |t| {
-            g.sky_cells(&coarse_pts, t, (gp.indirect_rays / 4).max(1))
+            g.sky_mask(&coarse_pts, t, (gp.indirect_rays / 4).max(1))
         })
     } else {
         Vec::new()
@@ -88,15 +89,16 @@ pub(super) fn final_gather_sampled(
     };
     let dir = crate::par::map(fine.atlas.texel_count(), threads, CHUNK, |t| {
         let (fi, side, p) = locate(t);
-        let guide = if sky_cells.is_empty() {
+        let guide = if sky_masks.is_empty() {
             None
         } else {
             let quad = Quad::at(&coarse.atlas.faces[fi], side, p);
             let parts = (0..4).filter_map(|c| {
-                let cells = sky_cells[quad.texel[c] as usize].as_ref()?;
-                Some((cells, quad.weight(c)))
+                let mask = sky_masks[quad.texel[c] as usize].as_ref()?;
+                Some((mask, quad.weight(c)))
             });
-            Guide::new(&Cells::blend(parts).w)
+            let w = SkyMask::blend(parts);
+            w.iter().any(|&x| x > 0.0).then_some(w)
         };
         let floor = luminance(chart_bilinear(
             &field.prep.faces[fi],
@@ -104,7 +106,7 @@ pub(super) fn final_gather_sampled(
             side,
             p,
         ));
-        g.direct_texel(&fine_pts, t, gp, guide.as_ref(), floor)
+        g.direct_texel(&fine_pts, t, gp, guide.as_deref(), floor)
     });
     // 3. The field read with the gathered direct light.
     if later.is_some() {
