@@ -1,5 +1,5 @@
 //! `cargo xtask chart [--quick] [--redraw] [SCENE...]`: speed against accuracy on the shared
-//! scenes (issue 8). For each scene: run `vlf-bake sweep` (release build) against its Mitsuba 3
+//! scenes (`docs/ACCURACY.md`). For each scene: run `vlf-bake sweep` (release build) against its Mitsuba 3
 //! reference in ../shared/reference into docs/bench/chart/SCENE.csv, then
 //! draw docs/bench/chart/SCENE-time.svg and SCENE-memory.svg (relMSE and FLIP against time and
 //! against working memory, log-log) and write docs/bench/chart/summary.csv and summary.md (the

@@ -1,4 +1,4 @@
-//! The final gather on the GPU (issue 14): the texel estimators of `vlf_core::gather` (the
+//! The final gather on the GPU (`docs/GATHER.md`): the texel estimators of `vlf_core::gather` (the
 //! specification) in `shaders/gather_texels.wgsl`, one invocation per texel, with rays traced
 //! inline through the ray engine's BVH ([`crate::raytrace::GpuScene`]), the path tracer's light
 //! list and sampling code (`shaders/common/rt_scene.wgsl`, `sampling.wgsl`, `random.wgsl`), the
