@@ -145,10 +145,13 @@ pub fn tiles_layout(
     })
 }
 
+/// Words before the tile index's arrays in [`tile_words`].
+pub const TILE_HEADER_WORDS: u32 = 8;
+
 /// The tile index words of the mirror-tile textures (see the module docs): the header, then
 /// the packed arrays of `ix`, padded to whole texels.
 pub fn tile_words(ix: &TileIndex) -> Vec<u32> {
-    let mut w = vec![0u32; 8];
+    let mut w = vec![0u32; TILE_HEADER_WORDS as usize];
     let push = |part: &[u32], w: &mut Vec<u32>| {
         let off = w.len() as u32;
         w.extend_from_slice(part);
@@ -158,7 +161,7 @@ pub fn tile_words(ix: &TileIndex) -> Vec<u32> {
     let o1 = push(&ix.index_start, &mut w);
     let o2 = push(&ix.tile_ids, &mut w);
     let o3 = push(&ix.coverage, &mut w);
-    w[..8].copy_from_slice(&[
+    w[..TILE_HEADER_WORDS as usize].copy_from_slice(&[
         ix.directions,
         ix.m,
         ix.n,
@@ -613,6 +616,14 @@ fn texel_bytes(format: wgpu::TextureFormat) -> usize {
 /// an upload never holds more than this in extra host memory, however large the texture).
 const UPLOAD_BAND_BYTES: usize = 8 << 20;
 
+/// Width and rows of a texture of `count` texels wrapped into rows of `width` (narrower when
+/// there are fewer; at least one texel).
+pub fn wrapped_extent(count: u64, width: u32) -> (u32, u64) {
+    let n = count.max(1);
+    let width = n.min(u64::from(width)) as u32;
+    (width, n.div_ceil(u64::from(width)))
+}
+
 /// A 2D texture of `format` holding `count` texels wrapped into rows of `width` (narrower
 /// when there are fewer; at least one texel, the rest of the last row zero), filled in bands
 /// of rows: `fill(first, out)` writes texels `first..` into `out` (whole texels, 8-byte
@@ -630,8 +641,7 @@ fn banded_texture(
 ) -> Result<wgpu::TextureView, RenderError> {
     let texel = texel_bytes(format);
     let n = count.max(1) as u64;
-    let width = (n.min(u64::from(width))) as u32;
-    let rows = n.div_ceil(u64::from(width));
+    let (width, rows) = wrapped_extent(count as u64, width);
     let max = device.limits().max_texture_dimension_2d;
     if rows > u64::from(max) {
         return Err(RenderError::TooLarge {
