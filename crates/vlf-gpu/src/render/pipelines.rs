@@ -20,6 +20,22 @@ pub(crate) fn color_attachment(
     }
 }
 
+/// Depth test against pass 3's depth buffer of `format`: greater or equal (reverse-Z: only the
+/// visible surface, or where no face is seen the background at depth 0, passes), no writes,
+/// with `stencil`. What pass 4, pass 4b and the window's fused pass 5 and sky draw with.
+pub(super) fn pass_three_depth(
+    format: wgpu::TextureFormat,
+    stencil: wgpu::StencilState,
+) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(false),
+        depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+        stencil,
+        bias: Default::default(),
+    }
+}
+
 /// Group-1 layout and bind group of a sphere-mesh pass (1, 2): vertices, triangles.
 pub(super) fn sphere_pass_layout(
     device: &wgpu::Device,
