@@ -91,7 +91,7 @@ use upload::GpuLightField;
 // Helpers of the pass modules, which reach them as `super::…`.
 pub(crate) use crate::wgpu_util::{storage_entry, texture_entry};
 pub(crate) use pipelines::color_attachment;
-use pipelines::{geometry_pass_layout, geometry_pipeline, sphere_pass_layout, sphere_pipeline};
+use pipelines::{geometry_pass_layout, geometry_pipeline};
 
 /// Face id written where no surface is seen.
 pub const NO_FACE: u32 = u32::MAX;

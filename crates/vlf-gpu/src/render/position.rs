@@ -5,95 +5,12 @@
 //! The uv target is what lets pass 5 apply textures at their own resolution; it is neither
 //! cleared nor read where no face is seen, and pass 5 reads it for textured faces only.
 
-use super::pipelines::pass_three_depth;
+use super::pipelines::MeshPass;
 use super::targets::{
-    ATTRIBUTE_WORDS_FORMAT, ATTRIBUTES_FORMAT, DEPTH_STENCIL_FORMAT, POSITION_FORMAT, Targets,
-    UV_FORMAT,
+    ATTRIBUTE_WORDS_FORMAT, ATTRIBUTES_FORMAT, POSITION_FORMAT, Targets, UV_FORMAT,
 };
 use super::upload::GpuLightField;
-use super::{geometry_pass_layout, geometry_pipeline};
 use crate::shaders;
-
-/// A draw of the scene's triangles against pass 3's depth ([`super::pipelines::pass_three_depth`]:
-/// only the visible surface is shaded) and its stencil where it has one (kept as it is): the
-/// pipeline and group-1 bind group passes 4 and 4b share.
-struct OverPassThree {
-    /// Labels `"{pass}::…"`.
-    pass: &'static str,
-    pipeline: wgpu::RenderPipeline,
-    bind_group: wgpu::BindGroup,
-    /// Whether the depth buffer has pass 3's stencil.
-    stencil: bool,
-}
-
-impl OverPassThree {
-    /// The pipeline of `shader` writing `formats`, its group 1 the light field's `buffers`
-    /// (vertex stage, in binding order) and its alpha masks.
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        device: &wgpu::Device,
-        pass: &'static str,
-        shader: &shaders::Shader,
-        globals_layout: &wgpu::BindGroupLayout,
-        lf: &GpuLightField,
-        buffers: &[&wgpu::Buffer],
-        formats: &[wgpu::TextureFormat],
-        depth_format: wgpu::TextureFormat,
-    ) -> Self {
-        let (pass_layout, bind_group) =
-            geometry_pass_layout(device, pass, buffers, &lf.alpha_masks);
-        let pipeline = geometry_pipeline(
-            device,
-            pass,
-            shader,
-            globals_layout,
-            &pass_layout,
-            formats,
-            pass_three_depth(depth_format, Default::default()),
-            lf.has_masks,
-        );
-        Self {
-            pass,
-            pipeline,
-            bind_group,
-            stencil: depth_format == DEPTH_STENCIL_FORMAT,
-        }
-    }
-
-    /// Draws the scene into `color`, loading and keeping pass 3's depth and stencil.
-    fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        globals: &wgpu::BindGroup,
-        targets: &Targets,
-        lf: &GpuLightField,
-        color: &[Option<wgpu::RenderPassColorAttachment<'_>>],
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        fn keep<V>() -> wgpu::Operations<V> {
-            wgpu::Operations {
-                load: wgpu::LoadOp::Load,
-                store: wgpu::StoreOp::Store,
-            }
-        }
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(&format!("{}::pass", self.pass)),
-            color_attachments: color,
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth_view,
-                depth_ops: Some(keep()),
-                stencil_ops: self.stencil.then(keep),
-            }),
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, globals, &[]);
-        pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.draw(0..lf.triangle_count * 3, 0..1);
-    }
-}
 
 /// A colour target loaded and kept: read only where a face is seen, all of which the pass
 /// writes, so not cleared.
@@ -109,7 +26,7 @@ fn kept(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>>
     })
 }
 
-pub struct PositionPass(OverPassThree);
+pub struct PositionPass(MeshPass);
 
 impl PositionPass {
     pub fn new(
@@ -118,7 +35,7 @@ impl PositionPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        Self(OverPassThree::new(
+        Self(MeshPass::over_pass_three(
             device,
             "Position",
             &shaders::RENDER_POSITION,
@@ -147,8 +64,8 @@ impl PositionPass {
             )),
             kept(&targets.uv_view),
         ];
-        self.0
-            .encode(encoder, globals, targets, lf, &color, timestamps);
+        let vertices = lf.triangle_count * 3;
+        (self.0).encode(encoder, globals, targets, &color, vertices, timestamps);
     }
 }
 
@@ -157,7 +74,7 @@ impl PositionPass {
 /// targets (shader `shaders/render_attributes.wgsl`). A pass of its own rather than two more
 /// targets of pass 4: the four would exceed the 32 bytes per pixel of colour attachments that
 /// every device allows.
-pub struct AttributesPass(OverPassThree);
+pub struct AttributesPass(MeshPass);
 
 impl AttributesPass {
     pub fn new(
@@ -166,7 +83,7 @@ impl AttributesPass {
         lf: &GpuLightField,
         depth_format: wgpu::TextureFormat,
     ) -> Self {
-        Self(OverPassThree::new(
+        Self(MeshPass::over_pass_three(
             device,
             "Attributes",
             &shaders::RENDER_ATTRIBUTES,
@@ -191,6 +108,7 @@ impl AttributesPass {
             kept(&targets.attributes_view[0]),
             kept(&targets.attributes_view[1]),
         ];
-        self.0.encode(encoder, globals, targets, lf, &color, None);
+        let vertices = lf.triangle_count * 3;
+        (self.0).encode(encoder, globals, targets, &color, vertices, None);
     }
 }

@@ -653,20 +653,8 @@ fn banded_texture(
     let rows = rows as usize;
     let row_bytes = width as usize * texel;
     *bytes += (rows * row_bytes) as u64;
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height: rows as u32,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+    let texture = crate::wgpu_util::texture_2d(device, label, (width, rows as u32), format, usage);
     let band_rows = (UPLOAD_BAND_BYTES / row_bytes).clamp(1, rows);
     // u64s: an 8-byte aligned buffer, reused for every band.
     let mut band = vec![0u64; (band_rows * row_bytes).div_ceil(8)];
