@@ -96,14 +96,7 @@ pub fn build_bvh(lf: &LightField) -> Bvh {
         .triangles
         .iter()
         .enumerate()
-        .map(|(i, t)| RtTriangle {
-            p0: t.p0,
-            material: t.face,
-            p1: t.p1,
-            prim: i as u32,
-            p2: t.p2,
-            light: vlf_core::pathtrace::NONE,
-        })
+        .map(|(i, t)| RtTriangle::of_baked(i, t))
         .collect();
     Bvh::build(tris).with_masks(std::sync::Arc::new(lf.alpha_masks()))
 }
