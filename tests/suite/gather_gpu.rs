@@ -19,7 +19,7 @@ use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_tests::{gpu, repo_dir};
 
 /// A propagated field at small settings (CPU reference propagation).
-struct Field {
+pub(crate) struct Field {
     prep: BakeScene,
     set: DirectionSet,
     irradiance: Vec<[f32; 4]>,
@@ -28,7 +28,7 @@ struct Field {
 }
 
 impl Field {
-    fn new(scene: &Scene, sky: Vec3) -> Field {
+    pub(crate) fn new(scene: &Scene, sky: Vec3) -> Field {
         let params = BakeParams {
             directions: 126,
             resolution: 32,
@@ -51,7 +51,7 @@ impl Field {
         }
     }
 
-    fn converged(&self) -> Converged<'_> {
+    pub(crate) fn converged(&self) -> Converged<'_> {
         Converged {
             prep: &self.prep,
             irradiance: &self.irradiance,
@@ -69,7 +69,7 @@ const MAX_MEAN: f64 = 1e-4;
 /// Bound of the fraction of covered texels whose relative difference exceeds 1e-3.
 const MAX_BEYOND: f64 = 0.01;
 
-fn gp() -> GatherParams {
+pub(crate) fn gp() -> GatherParams {
     GatherParams {
         texel_scale: 1.0,
         indirect_texel_scale: 2.0,
@@ -251,7 +251,7 @@ fn slab_under_ceiling() -> Scene {
     b.build("slab under the ceiling")
 }
 
-fn cornell(file: &str) -> Scene {
+pub(crate) fn cornell(file: &str) -> Scene {
     vlf_core::scene::load(&repo_dir().join("assets").join(file)).unwrap()
 }
 

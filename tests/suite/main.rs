@@ -5,6 +5,7 @@ mod bake_gpu;
 mod bake_plan;
 mod directions_gpu;
 mod gather_gpu;
+mod gather_plan;
 mod glossy_gpu;
 mod gpu_smoke;
 mod pathtrace_gpu;

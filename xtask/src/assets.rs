@@ -278,7 +278,7 @@ enum Variant {
     /// The tall block is a perfect mirror.
     Mirror,
     /// The tall block is marble (a dipole medium), the short one a paper shell (thin diffuse
-    /// transmission): issue 28.
+    /// transmission; `docs/SUBSURFACE.md`).
     Translucent,
 }
 

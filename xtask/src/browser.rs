@@ -1,4 +1,4 @@
-//! `cargo xtask browser`: the glTF export checked in a real browser (issue 18).
+//! `cargo xtask browser`: the glTF export checked in a real browser (`docs/ENGINES.md`).
 //!
 //! 1. Bakes the Cornell box (draft) and, when `../shared` is there, the textured lava-circuit
 //!    scene, exports both with `vlf-bake export` (Cornell box: exr and png-rgbm) and validates

@@ -1,5 +1,5 @@
 //! `cargo xtask chart [--quick] [--redraw] [SCENE...]`: speed against accuracy on the shared
-//! scenes (issue 8). For each scene: run `vlf-bake sweep` (release build) against its Mitsuba 3
+//! scenes (`docs/ACCURACY.md`). For each scene: run `vlf-bake sweep` (release build) against its Mitsuba 3
 //! reference in ../shared/reference into docs/bench/chart/SCENE.csv, then
 //! draw docs/bench/chart/SCENE-time.svg and SCENE-memory.svg (relMSE and FLIP against time and
 //! against working memory, log-log) and write docs/bench/chart/summary.csv and summary.md (the
@@ -268,80 +268,72 @@ fn series_for(rows: &[Row], axis: Axis, metric: &str) -> Vec<Series> {
         .filter(|r| r.s("method") == "vlf" && !r.s("preset").is_empty())
         .map(|r| (axis.value(r), r.f(metric), r.s("preset").to_string()))
         .collect();
+    let series = |name: &str, color, points, line, marker| Series {
+        name: name.into(),
+        color,
+        points,
+        line,
+        marker,
+    };
     let mut v = vec![
-        Series {
-            name: "path tracer (1, 2, 4, … spp)".into(),
-            color: "#1f77b4",
-            points: pick("pathtrace"),
-            line: true,
-            marker: Marker::Circle,
-        },
-        Series {
-            name: "VLF bake (grid)".into(),
-            color: "#ff7f0e",
-            points: vlf.clone(),
-            line: false,
-            marker: Marker::Square,
-        },
-        Series {
-            name: "VLF best error for the cost".into(),
-            color: "#ff7f0e",
-            points: pareto(&vlf),
-            line: true,
-            marker: Marker::Square,
-        },
-        Series {
-            name: "VLF presets".into(),
-            color: "#d62728",
-            points: presets,
-            line: false,
-            marker: Marker::Diamond,
-        },
+        series(
+            "path tracer (1, 2, 4, … spp)",
+            "#1f77b4",
+            pick("pathtrace"),
+            true,
+            Marker::Circle,
+        ),
+        series(
+            "VLF bake (grid)",
+            "#ff7f0e",
+            vlf.clone(),
+            false,
+            Marker::Square,
+        ),
+        series(
+            "VLF best error for the cost",
+            "#ff7f0e",
+            pareto(&vlf),
+            true,
+            Marker::Square,
+        ),
+        series("VLF presets", "#d62728", presets, false, Marker::Diamond),
     ];
-    // The light field alone (`--final-gather off`): its own series.
-    let lf = pick("vlf-no-gather");
-    if !lf.is_empty() {
-        v.push(Series {
-            name: "VLF without final gather, best for the cost".into(),
-            color: "#7f7f7f",
-            points: pareto(&lf),
-            line: true,
-            marker: Marker::Square,
-        });
-        v.push(Series {
-            name: "VLF without final gather (grid)".into(),
-            color: "#7f7f7f",
-            points: lf,
-            line: false,
-            marker: Marker::Square,
-        });
-    }
-    let rad = pick("radiosity_gs");
-    if !rad.is_empty() {
-        v.push(Series {
-            name: "radiosity GS, best for the cost".into(),
-            color: "#2ca02c",
-            points: pareto(&rad),
-            line: true,
-            marker: Marker::Triangle,
-        });
-        v.push(Series {
-            name: "radiosity GS (all points)".into(),
-            color: "#2ca02c",
-            points: rad,
-            line: false,
-            marker: Marker::Triangle,
-        });
+    // The light field alone (`--final-gather off`), and the radiosity baselines: their best
+    // for the cost, then every point.
+    for (method, name, all, color, marker) in [
+        (
+            "vlf-no-gather",
+            "VLF without final gather",
+            "(grid)",
+            "#7f7f7f",
+            Marker::Square,
+        ),
+        (
+            "radiosity_gs",
+            "radiosity GS",
+            "(all points)",
+            "#2ca02c",
+            Marker::Triangle,
+        ),
+    ] {
+        let points = pick(method);
+        if !points.is_empty() {
+            let front = format!("{name}, best for the cost");
+            v.push(series(&front, color, pareto(&points), true, marker));
+            v.push(series(
+                &format!("{name} {all}"),
+                color,
+                points,
+                false,
+                marker,
+            ));
+        }
     }
     let jac = pick("radiosity_jacobi_gpu");
     if !jac.is_empty() {
-        v.push(Series {
-            name: "radiosity Jacobi (GPU)".into(),
-            color: "#17becf",
-            points: jac,
-            line: false,
-            marker: Marker::Triangle,
-        });
+        let name = "radiosity Jacobi (GPU)";
+        v.push(series(name, "#17becf", jac, false, Marker::Triangle));
     }
     v
 }

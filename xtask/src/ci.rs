@@ -72,6 +72,7 @@ pub fn ci(root: &Path) -> Result<()> {
         crate::modgraph::check(root, Path::new(LAYERED_CRATE))?
     );
     crate::one_home::check(root)?;
+    eprintln!("{}", crate::codemap::check(root)?);
     eprintln!("==> source file lengths");
     let n = crate::lengths::check(root)?;
     eprintln!(

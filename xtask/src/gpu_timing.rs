@@ -1,6 +1,6 @@
 //! `cargo xtask gpu-timing [--quick] [--frames N] [--size WxH] [--scene SCENE]`: the bake and
 //! the walkthrough timed on whatever adapter the machine has, for the figures a hardware GPU
-//! gives (issue 17; `docs/PERFORMANCE.md` "Timing on a GPU"). Bakes the Cornell box on the GPU
+//! gives (`docs/PERFORMANCE.md`, "Timing on a GPU"). Bakes the Cornell box on the GPU
 //! path (`--device gpu`) and on the CPU path (`--device cpu`), renders `--bench-frames` of the
 //! GPU bake at 1024×768, and prints a short table with the adapter and its driver, next to the
 //! paper's marks (Cornell box baked in 4.07 s, 121 fps at 1024×768 on an 8800 GTX).

@@ -5,6 +5,7 @@ mod assets;
 mod browser;
 mod chart;
 mod ci;
+mod codemap;
 mod gpu_timing;
 mod lengths;
 mod modgraph;
@@ -32,8 +33,9 @@ tasks:
   assets        regenerate the Cornell box scenes under assets/
   check-assets  fail if assets/ is stale, then run Khronos glTF-Validator on it
   validate-gltf FILE...  run Khronos glTF-Validator on the given files
-  check-modules  fail on an import cycle between vlf-core's modules (print their layers) or on
-                 wgpu boilerplate outside vlf-gpu's wgpu_util.rs
+  check-modules  fail on an import cycle between vlf-core's modules (print their layers), on
+                 wgpu boilerplate outside vlf-gpu's wgpu_util.rs, or where the code map of
+                 docs/ARCHITECTURE.md and the crates' modules disagree
   check-lengths  fail on a non-test source file over 800 lines under crates/ and xtask/";
 
 fn repo_root() -> PathBuf {
@@ -68,6 +70,7 @@ fn main() -> Result<()> {
             print!("{}", modgraph::check(&root, Path::new(ci::LAYERED_CRATE))?);
             let n = one_home::check(&root)?;
             println!("vlf-gpu: wgpu boilerplate only in wgpu_util.rs ({n} files read)");
+            println!("{}", codemap::check(&root)?);
         }
         Some("check-lengths") => {
             let n = lengths::check(&root)?;

@@ -74,6 +74,13 @@ pub fn check(root: &Path, src: &Path) -> Result<String> {
     ))
 }
 
+/// Every module of the crate whose sources are in `src` (relative to `root`), as paths from the
+/// crate root (`["bake", "reference"]`); the root itself is the empty path. Test modules are
+/// left out.
+pub fn modules(root: &Path, src: &Path) -> Result<BTreeSet<Vec<String>>> {
+    Ok(load(root, src)?.modules.into_keys().collect())
+}
+
 fn display(module: &[String]) -> String {
     if module.is_empty() {
         "the crate root".into()

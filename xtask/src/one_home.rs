@@ -1,5 +1,5 @@
 //! Part of `cargo xtask check-modules`: the wgpu boilerplate of vlf-gpu has one home,
-//! `crates/vlf-gpu/src/wgpu_util.rs` (issue 26). A bind-group layout entry written out, a compute
+//! `crates/vlf-gpu/src/wgpu_util.rs`. A bind-group layout entry written out, a compute
 //! pipeline or a pipeline layout created by hand, or a second `dispatch_2d` anywhere else in
 //! the crate fails the check, naming the file and line.
 

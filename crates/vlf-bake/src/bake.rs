@@ -146,7 +146,7 @@ pub struct BakeReport {
     pub params: BakeParams,
     pub directions: usize,
     pub prepared: bake::prep::PrepSummary,
-    /// How each material's metal lobe is baked (mirror, directional tiles, diffuse; issue 16).
+    /// How each material's metal lobe is baked (mirror, directional tiles or diffuse).
     pub materials: Vec<bake::glossy::MaterialModel>,
     pub iterations: u32,
     pub phases_s: Vec<(String, f64)>,

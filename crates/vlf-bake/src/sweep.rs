@@ -1,4 +1,4 @@
-//! `vlf-bake sweep`: speed against accuracy on one scene (issue 8). Bakes the scene over a grid
+//! `vlf-bake sweep`: speed against accuracy on one scene (`docs/ACCURACY.md`). Bakes the scene over a grid
 //! of parameters, renders one viewpoint of each bake with the five-pass renderer, and compares
 //! it with a reference image; the path tracer (an error-vs-time curve over samples per pixel)
 //! and the matrix radiosity baseline (diffuse scenes) are measured on the same view. One CSV row

@@ -4,7 +4,7 @@
 //! mixed faces reserve for their tiles − what the tiles receive, lobe loss included).
 //! `cargo run --release -p vlf-core --example energy_probe -- SCENE directions resolution tile
 //! [texel_scale]`; `VLF_PERTURB=n` for perturbed directions. Emitters only (no sky, no suns).
-//! Written for issue 16's cornell-suzanne (docs/PROPAGATION.md, "Faces smaller than a ray
+//! Made for cornell-suzanne's small faces (docs/PROPAGATION.md, "Faces smaller than a ray
 //! cell").
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};

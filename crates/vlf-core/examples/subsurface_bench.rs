@@ -1,5 +1,5 @@
-//! The dipole links' memory and time against the object's texel count (`docs/PERFORMANCE.md`,
-//! issue 28): a 12 × 5 × 12 cm box of Jensen's marble at several texel sizes, the links built on
+//! The dipole links' memory and time against the object's texel count (`docs/PERFORMANCE.md`):
+//! a 12 × 5 × 12 cm box of Jensen's marble at several texel sizes, the links built on
 //! every core, then one scatter step (what each propagation iteration adds).
 //!
 //! `cargo run --release -p vlf-core --example subsurface_bench [texel mm ...]`

@@ -5,7 +5,9 @@
 //! * [`shaders`]: the registry of every WGSL file under `shaders/`, embedded at compile time, and
 //!   the `#import "common/NAME.wgsl"` resolver that keeps each shared definition in one file.
 //! * [`layout`]: the one source of truth for structs shared between Rust and WGSL.
-//! * [`passes`]: one module per GPU pass, each owning its pipeline, bind-group layouts and WGSL.
+//! * [`wgpu_util`]: the one home of the wgpu boilerplate every pass shares.
+//! * [`bake`]: the GPU propagator (`vlf_core::bake::reference` is its specification).
+//! * [`raytrace`]: the GPU ray engine and path tracer.
 //! * [`render`]: the viewer's five render passes (paper §4) and headless stills.
 //! * [`directions`]: the direction set's lookup in WGSL, its tables and a batch lookup pass.
 //! * [`gather`]: the final gather on the GPU (`vlf_core::gather` is its specification).

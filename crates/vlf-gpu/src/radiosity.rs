@@ -28,7 +28,8 @@ use crate::GpuContext;
 use crate::layout::{PatchTerm, RadiosityGlobals};
 use crate::readback::read_buffer;
 use crate::wgpu_util::{
-    compute_pipeline, compute_storage, dispatch_2d, pipeline_layout, uniform_entry,
+    buffer_bind_group, compute_pipeline, compute_storage, dispatch_2d, pipeline_layout,
+    uniform_entry,
 };
 
 /// Invocations per workgroup of `sweep` (`WG` in the WGSL).
@@ -203,19 +204,7 @@ pub fn solve_jacobi(
         let buffers = [
             &row_start, &columns, &values, &terms, src, dst, &partials, &state,
         ];
-        let entries: Vec<_> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(label),
-            layout: &pass.pass_layout,
-            entries: &entries,
-        })
+        buffer_bind_group(device, label, &pass.pass_layout, &buffers)
     };
     // Index k % 2 of the next sweep k: 1 → a→b, 0 → b→a.
     let bind = [

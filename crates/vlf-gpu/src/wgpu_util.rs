@@ -1,9 +1,34 @@
 //! The one home of the wgpu boilerplate every pass shares (as re_renderer's `wgpu_resources`):
 //! bind-group layout entries, compute pipelines from a module and a layout, bind groups of
-//! buffers in binding order, and the split of a large dispatch over two dimensions. A pass
+//! buffers in binding order, plain 2D textures, and the split of a large dispatch over two
+//! dimensions. A pass
 //! module keeps what is its own (its layouts, its WGSL file, its labels); what is the same
 //! everywhere lives here, and `cargo xtask check-modules` fails on a second definition
 //! (`wgpu::BindGroupLayoutEntry {` or `create_compute_pipeline(` outside this file).
+
+/// A 2D texture of `format`, `width` × `height`, one mip level, one sample.
+pub fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
 
 /// A storage buffer at `binding`, seen by `visibility`.
 pub(crate) fn storage_entry(

@@ -16,6 +16,7 @@ use cli::{Cli, TonemapArg};
 use vlf_core::image::{Image, Tonemap};
 use vlf_core::lightfield::LightField;
 use vlf_gpu::render::{CameraView, Pass, RenderError, Renderer, TIMED_PASSES};
+use vlf_gpu::wgpu_util::texture_2d;
 use vlf_gpu::{DeviceOptions, GpuContext};
 
 /// Exit codes, documented in `--help`.
@@ -332,20 +333,8 @@ pub fn bench(
 ) -> anyhow::Result<BenchReport> {
     renderer.set_debug_view(view);
     let format = wgpu::TextureFormat::Bgra8UnormSrgb;
-    let target = ctx.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("Bench::target"),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-        view_formats: &[],
-    });
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let target = texture_2d(&ctx.device, "Bench::target", (width, height), format, usage);
     let view = target.create_view(&Default::default());
     let mut frame_ms = Vec::new();
     // Per pass: the sum of its times and the frames that ran it.

@@ -39,18 +39,7 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
 
 /// `1.5 GiB`-style text for byte counts.
 pub fn human(bytes: u64) -> String {
-    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut v = bytes as f64;
-    let mut u = 0;
-    while v >= 1024.0 && u + 1 < UNITS.len() {
-        v /= 1024.0;
-        u += 1;
-    }
-    if u == 0 {
-        format!("{bytes} B")
-    } else {
-        format!("{v:.1} {}", UNITS[u])
-    }
+    vlf_core::format::human_bytes(bytes, 1)
 }
 
 /// One limit of a [`Budget`].

@@ -64,16 +64,19 @@ fn gpu_items(plan: &BakePlan) -> Vec<PlanItem> {
     items
 }
 
-/// The GPU final gather's buffers (`vlf_gpu::gather::GatherPlan`): its grids' texels counted as
-/// [`super::texel_count`] counts the propagation's, at the gather's texel sizes. They are
-/// allocated after the propagation's are freed, so adding them to the GPU total overestimates
-/// the peak a little.
+/// The GPU final gather's buffers (`vlf_gpu::gather::GatherPlan`, at its peak: the shared
+/// buffers and the larger grid's), from counts estimated before propagating: its grids'
+/// texels counted as [`super::texel_count`] counts the propagation's, at the gather's texel
+/// sizes; the BVH at its bound of two nodes per triangle; every triangle of an emissive
+/// material an emitter; per-corner attributes for every triangle with any. They are allocated
+/// after the propagation's are freed, so adding them to the GPU total overestimates the peak a
+/// little.
 fn gather_items(
     scene: &Scene,
     prep: &BakeScene,
     params: &BakeParams,
     gp: &vlf_core::lightfield::GatherParams,
-    tile_values: u64,
+    (set, mirror): (&DirectionSet, &MirrorCounts),
     budget: &Budget,
 ) -> Vec<PlanItem> {
     use vlf_gpu::gather::{GatherCounts, GatherOptions, GatherPlan};
@@ -86,32 +89,37 @@ fn gather_items(
             },
         )
     };
+    let count = |f: &dyn Fn(&vlf_core::scene::Triangle) -> bool| {
+        scene.triangles.iter().filter(|t| f(t)).count() as u64
+    };
+    let triangles = scene.triangles.len() as u64;
+    let tiled = mirror.tile_values > 0;
     let counts = GatherCounts {
         indirect_texels: at(gp.indirect_texel_scale),
         direct_texels: at(gp.texel_scale),
-        faces: scene.faces.len() as u64,
-        triangles: scene.triangles.len() as u64,
-        smooth_triangles: scene
-            .triangles
-            .iter()
-            .filter(|t| t.normals.is_some())
-            .count() as u64,
-        attributed_triangles: scene
-            .triangles
-            .iter()
-            .filter(|t| t.normals.is_some() || t.colors.is_some() || t.uv1.is_some())
-            .count() as u64,
-        field_texels: prep.texel_count() as u64,
-        tile_values,
-        texture_texels: scene.textures.iter().map(|t| t.pixels.len() as u64).sum(),
+        faces: prep.faces.len() as u64,
+        triangles,
+        bvh_nodes: 2 * triangles,
+        smooth_triangles: count(&|t| t.normals.is_some()),
+        attributed_triangles: count(&|t| {
+            t.normals.is_some() || t.colors.is_some() || t.uv1.is_some()
+        }),
+        mask_words: prep.masks.word_count() as u64,
         materials: scene.materials.len() as u64,
-        has_emitters: scene.has_emitters(),
-        delta_lights: !scene.suns.is_empty() || !scene.lights.is_empty(),
+        emitters: count(&|t| scene.materials[t.material as usize].is_emissive()),
+        delta_lights: (scene.suns.len() + scene.lights.len()) as u64,
+        textures: scene.textures.len() as u64,
+        texture_texels: scene.textures.iter().map(|t| t.pixels.len() as u64).sum(),
+        direction_mesh: (set.sphere_vertices().len() + set.sphere_triangles().len()) as u64,
+        field_texels: prep.texel_count() as u64,
+        tile_values: mirror.tile_values,
+        tile_index_words: if tiled { mirror.index_words } else { 0 },
+        tile_directions: if tiled { set.len() as u64 } else { 0 },
     };
     let limit = budget.buffer.as_ref().map_or(u64::MAX, |l| l.bytes);
     let plan = GatherPlan::new(&counts, gp, &GatherOptions::default(), limit, 256);
-    plan.buffers
-        .iter()
+    plan.peak()
+        .into_iter()
         .map(|b| PlanItem {
             bytes: b.bytes,
             ..item(
@@ -437,7 +445,14 @@ pub fn plan_prepared(
         items.extend(gpu_host_items(plan, &c, x, tris, tiles2, file));
         items.extend(gpu_items(plan));
         if let Some(gp) = &params.final_gather {
-            items.extend(gather_items(scene, prep, params, gp, tile_values, budget));
+            items.extend(gather_items(
+                scene,
+                prep,
+                params,
+                gp,
+                (set, &c.mirror),
+                budget,
+            ));
         }
     } else {
         items.extend(cpu_items(params, &c, x, tris, tiles2, file));

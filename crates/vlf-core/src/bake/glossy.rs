@@ -1,4 +1,4 @@
-//! How the bake models each material's metal lobe (issue 16): a perfect mirror, a glossy
+//! How the bake models each material's metal lobe (`docs/PROPAGATION.md`): a perfect mirror, a glossy
 //! GGX lobe carried in directional tiles, or — when the lobe is so wide that it reflects
 //! almost like a Lambertian surface — folded into the diffuse part. The rules, and why:
 //!
@@ -44,7 +44,7 @@ pub enum SpecularModel {
     Tiles { alpha: f32 },
     /// Folded into the diffuse part with its hemispherical albedo.
     Diffuse { alpha: f32 },
-    /// A thin glass pane (issue 25): reflected as a perfect mirror scaled by R(θ)
+    /// A thin glass pane (`docs/TRANSMISSION.md`): reflected as a perfect mirror scaled by R(θ)
     /// (`scene::pane_reflectance`), the rest passed straight through by the interface step;
     /// a metal lobe of the same material is folded into the diffuse part.
     Pane { ior: f32 },

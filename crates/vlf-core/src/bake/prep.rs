@@ -376,25 +376,17 @@ fn coverage(scene: &Scene, fi: usize, bf: &BakeFace) -> Coverage {
     let face_tris = scene.face_triangles(fi);
     for (k, tri) in face_tris.iter().enumerate() {
         let q: [Vec2; 3] = tri.p.map(|p| basis.to_chart(xf.apply(p)) / texel_size);
-        let lo = q[0].min(q[1]).min(q[2]);
-        let hi = q[0].max(q[1]).max(q[2]);
-        let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
-        let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
-        let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
-        let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let poly = clip_to_square(&q, x as f32, y as f32);
-                let (a, c) = polygon_area_centroid(&poly);
-                if a <= 0.0 {
-                    continue;
-                }
-                let i = y * w + x;
-                area[i] += a;
-                centroid[i] += c * a as f32;
-                if a > best[i].0 {
-                    best[i] = (a, k, c);
-                }
+        for (x, y) in texels_under(&q, w, h) {
+            let poly = clip_to_square(&q, x as f32, y as f32);
+            let (a, c) = polygon_area_centroid(&poly);
+            if a <= 0.0 {
+                continue;
+            }
+            let i = y * w + x;
+            area[i] += a;
+            centroid[i] += c * a as f32;
+            if a > best[i].0 {
+                best[i] = (a, k, c);
             }
         }
     }
@@ -596,46 +588,54 @@ fn texture_means(
             *TEXTURE_SAMPLES.end() as f32,
         ) as u32;
         let wgt = 1.0 / (s * s) as f32;
-        let lo = q[0].min(q[1]).min(q[2]);
-        let hi = q[0].max(q[1]).max(q[2]);
-        let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
-        let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
-        let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
-        let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let i = y * w + x;
-                for sy in 0..s {
-                    for sx in 0..s {
-                        let c = Vec2::new(
-                            x as f32 + (sx as f32 + 0.5) / s as f32,
-                            y as f32 + (sy as f32 + 0.5) / s as f32,
-                        );
-                        let d = c - q[0];
-                        let b1 = d.perp_dot(e2) / det;
-                        let b2 = e1.perp_dot(d) / det;
-                        if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
-                            continue;
-                        }
-                        m.weight[i] += wgt;
-                        if masks.is_some_and(|mk| mk.cuts(ti, [1.0 - b1 - b2, b1, b2])) {
-                            continue;
-                        }
-                        let mut base = surface_value(tri, textures[0], b1, b2);
-                        if colored {
-                            base *= tri.color_at(b1, b2);
-                        }
-                        m.sum[0][i] += base * wgt;
-                        if textures[1].is_some() {
-                            m.sum[1][i] += surface_value(tri, textures[1], b1, b2) * wgt;
-                        }
-                        m.open[i] += wgt;
+        for (x, y) in texels_under(&q, w, h) {
+            let i = y * w + x;
+            for sy in 0..s {
+                for sx in 0..s {
+                    let c = Vec2::new(
+                        x as f32 + (sx as f32 + 0.5) / s as f32,
+                        y as f32 + (sy as f32 + 0.5) / s as f32,
+                    );
+                    let d = c - q[0];
+                    let b1 = d.perp_dot(e2) / det;
+                    let b2 = e1.perp_dot(d) / det;
+                    if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
+                        continue;
                     }
+                    m.weight[i] += wgt;
+                    if masks.is_some_and(|mk| mk.cuts(ti, [1.0 - b1 - b2, b1, b2])) {
+                        continue;
+                    }
+                    let mut base = surface_value(tri, textures[0], b1, b2);
+                    if colored {
+                        base *= tri.color_at(b1, b2);
+                    }
+                    m.sum[0][i] += base * wgt;
+                    if textures[1].is_some() {
+                        m.sum[1][i] += surface_value(tri, textures[1], b1, b2) * wgt;
+                    }
+                    m.open[i] += wgt;
                 }
             }
         }
     }
     m
+}
+
+/// The texels (x, y) of a `w` × `h` chart that the bounding box of the triangle `q` (in texel
+/// units) touches, clamped to the chart, row by row.
+pub(super) fn texels_under(
+    q: &[Vec2; 3],
+    w: usize,
+    h: usize,
+) -> impl Iterator<Item = (usize, usize)> + use<> {
+    let lo = q[0].min(q[1]).min(q[2]);
+    let hi = q[0].max(q[1]).max(q[2]);
+    let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
+    let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
+    let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
+    let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
+    (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| (x, y)))
 }
 
 /// Clips triangle `q` (texel units) against the unit square at `(x, y)` (Sutherland–Hodgman).

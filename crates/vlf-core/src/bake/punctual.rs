@@ -20,7 +20,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::prep::BakeScene;
+use super::prep::{BakeScene, texels_under};
 use crate::pathtrace::Bvh;
 use crate::pathtrace::geometry::{NONE, RtTriangle, offset_ray_origin};
 
@@ -144,29 +144,21 @@ fn coverage_masks(scene: &BakeScene) -> Vec<u16> {
             continue;
         }
         let (w, h) = (f.width as usize, f.height as usize);
-        let lo = q[0].min(q[1]).min(q[2]);
-        let hi = q[0].max(q[1]).max(q[2]);
-        let x0 = (lo.x.floor().max(0.0) as usize).min(w - 1);
-        let y0 = (lo.y.floor().max(0.0) as usize).min(h - 1);
-        let x1 = (hi.x.floor().max(0.0) as usize).min(w - 1);
-        let y1 = (hi.y.floor().max(0.0) as usize).min(h - 1);
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let texel = f.texel_base as usize + y * w + x;
-                if scene.texel_area[texel] <= 0.0 {
-                    continue;
-                }
-                for k in 0..s * s {
-                    let c = Vec2::new(
-                        x as f32 + ((k % s) as f32 + 0.5) / s as f32,
-                        y as f32 + ((k / s) as f32 + 0.5) / s as f32,
-                    );
-                    let d = c - q[0];
-                    let b1 = d.perp_dot(e2) / det;
-                    let b2 = e1.perp_dot(d) / det;
-                    if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
-                        masks[texel] |= 1 << k;
-                    }
+        for (x, y) in texels_under(&q, w, h) {
+            let texel = f.texel_base as usize + y * w + x;
+            if scene.texel_area[texel] <= 0.0 {
+                continue;
+            }
+            for k in 0..s * s {
+                let c = Vec2::new(
+                    x as f32 + ((k % s) as f32 + 0.5) / s as f32,
+                    y as f32 + ((k / s) as f32 + 0.5) / s as f32,
+                );
+                let d = c - q[0];
+                let b1 = d.perp_dot(e2) / det;
+                let b2 = e1.perp_dot(d) / det;
+                if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
+                    masks[texel] |= 1 << k;
                 }
             }
         }

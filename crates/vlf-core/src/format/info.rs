@@ -174,6 +174,12 @@ impl FileInfo {
 
 /// `1234567` → `"1.18 MiB"`.
 fn human(bytes: u64) -> String {
+    human_bytes(bytes, 2)
+}
+
+/// A byte count in binary units with `decimals` digits after the point (`human_bytes(1234567,
+/// 2)` → `"1.18 MiB"`), under 1 KiB in bytes (`"12 B"`): how vlf's tools print sizes.
+pub fn human_bytes(bytes: u64, decimals: usize) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
     let mut v = bytes as f64;
     let mut u = 0;
@@ -184,7 +190,7 @@ fn human(bytes: u64) -> String {
     if u == 0 {
         format!("{bytes} B")
     } else {
-        format!("{v:.2} {}", UNITS[u])
+        format!("{v:.decimals$} {}", UNITS[u])
     }
 }
 

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 use crate::atomic_file;
 use crate::lightfield::{DEFAULT_ENCODING, LightField, RadianceEncoding};
-pub use info::{FileInfo, MemoryInfo, SectionInfo};
+pub use info::{FileInfo, MemoryInfo, SectionInfo, human_bytes};
 use read::{read_from, read_head};
 use source::{Bytes, FileSource};
 use write::encode;

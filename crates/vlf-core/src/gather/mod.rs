@@ -1,4 +1,4 @@
-//! Final gather (issue 14, `docs/GATHER.md`): once propagation has converged, every texel's
+//! Final gather (`docs/GATHER.md`): once propagation has converged, every texel's
 //! irradiance is computed once more by backward ray tracing, into an atlas that may be finer
 //! than the propagation's:
 //!

@@ -1,4 +1,4 @@
-//! Rays through thin glass panes (issue 25, `docs/GATHER.md`): a pane passes `w_pane × T(θ) ×
+//! Rays through thin glass panes (`docs/GATHER.md`, `docs/TRANSMISSION.md`): a pane passes `w_pane × T(θ) ×
 //! C` of the light along a ray straight through (no refraction) and reflects the rest, which
 //! its mirror tiles hold. The gather's rays therefore go on through panes: a direct ray sees
 //! the sky or an emitter behind a window weighted by the panes' transmittance, a shadow ray

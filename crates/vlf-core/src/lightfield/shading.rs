@@ -42,7 +42,7 @@ use glam::{Vec2, Vec3};
 
 use super::encoding::RadianceEncoding;
 use super::radiance::Radiance;
-use crate::scene::{FilterMode, Material, Scene, WrapMode};
+use crate::scene::{FilterMode, Material, Scene, Texture, WrapMode};
 
 /// Texture index meaning "no texture" (reads 1).
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -225,12 +225,7 @@ impl Shading {
         let uvs = scene
             .triangles
             .iter()
-            .map(|t| {
-                t.uv.map(|uv| {
-                    let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-                    uv.to_array()
-                })
-            })
+            .map(|t| t.uv.map(finite_uv))
             .collect();
         let mut values = Vec::new();
         let mut non_finite = 0usize;
@@ -254,20 +249,12 @@ impl Shading {
         }
         let materials = surface_materials(scene);
         let alpha = if materials.iter().any(SurfaceMaterial::masks) {
-            let mut a = Vec::with_capacity(values.len());
-            for t in &scene.textures {
-                let n = t.width as usize * t.height as usize;
-                a.extend(t.pixels.iter().take(n).map(|p| texture_alpha(p.w)));
-                a.resize(
-                    a.len() + n.saturating_sub(t.pixels.len()),
-                    texture_alpha(1.0),
-                );
-            }
-            a
+            (scene.textures.iter())
+                .flat_map(|t| (0..t.width as usize * t.height as usize).map(|i| texel_alpha(t, i)))
+                .collect()
         } else {
             Vec::new()
         };
-        let finite2 = |uv: Vec2| if uv.is_finite() { uv } else { Vec2::ZERO }.to_array();
         let uvs1 = materials
             .iter()
             .any(SurfaceMaterial::uses_texcoord1)
@@ -275,7 +262,7 @@ impl Shading {
                 scene
                     .triangles
                     .iter()
-                    .map(|t| t.uv_set(1).map(finite2))
+                    .map(|t| t.uv_set(1).map(finite_uv))
                     .collect()
             });
         let normals = scene.has_smooth_normals().then(|| {
@@ -294,16 +281,7 @@ impl Shading {
             uvs1,
             normals,
             colors,
-            textures: scene
-                .textures
-                .iter()
-                .map(|t| SurfaceTexture {
-                    width: t.width,
-                    height: t.height,
-                    wrap_s: t.wrap_s,
-                    wrap_t: t.wrap_t,
-                })
-                .collect(),
+            textures: surface_textures(scene),
             texels: Radiance::from_f32(&values, RadianceEncoding::RgbF16)
                 .expect("non-finite texels were replaced"),
             alpha,
@@ -598,10 +576,38 @@ pub fn surface_materials(scene: &Scene) -> Vec<SurfaceMaterial> {
         .collect()
 }
 
+/// The file's textures of `scene`'s: their sizes and wrap modes.
+pub fn surface_textures(scene: &Scene) -> Vec<SurfaceTexture> {
+    (scene.textures.iter())
+        .map(|t| SurfaceTexture {
+            width: t.width,
+            height: t.height,
+            wrap_s: t.wrap_s,
+            wrap_t: t.wrap_t,
+        })
+        .collect()
+}
+
+/// A corner's texture coordinates as the light field stores them: a non-finite one as 0.
+pub fn finite_uv(uv: Vec2) -> [f32; 2] {
+    if uv.is_finite() { uv } else { Vec2::ZERO }.to_array()
+}
+
 /// A texture alpha as the light field stores it ([`Shading::alpha`]): clamped to [0, 1] (NaN as
 /// 1), in f16.
 pub fn texture_alpha(a: f32) -> u16 {
     super::encoding::f16_encode(if a.is_nan() { 1.0 } else { a.clamp(0.0, 1.0) })
+}
+
+/// The stored alpha ([`texture_alpha`]) of texel `i` of `texture`, 1 past its decoded pixels
+/// (an image shorter than its size, which the importer rejects): the one read of a scene's
+/// texture alpha, for the light field's [`Shading::alpha`] and the bake's
+/// [`super::mask::AlphaMasks::from_scene`].
+pub fn texel_alpha(texture: &Texture, i: usize) -> u16 {
+    texture
+        .pixels
+        .get(i)
+        .map_or(texture_alpha(1.0), |p| texture_alpha(p.w))
 }
 
 /// One axis of [`Shading::sample`]: the wrapped indices of the two texels around the sample

@@ -24,6 +24,19 @@ pub struct RtTriangle {
 }
 
 impl RtTriangle {
+    /// Baked triangle `t`, the `prim`-th (VLF coordinates), with its face in `material`: what
+    /// the BVHs over a light field's or a prepared scene's triangles hold.
+    pub fn of_baked(prim: usize, t: &crate::lightfield::BakeTriangle) -> RtTriangle {
+        RtTriangle {
+            p0: t.p0,
+            material: t.face,
+            p1: t.p1,
+            prim: prim as u32,
+            p2: t.p2,
+            light: NONE,
+        }
+    }
+
     /// Corners as vectors.
     pub fn corners(&self) -> [Vec3; 3] {
         [self.p0.into(), self.p1.into(), self.p2.into()]

@@ -62,6 +62,19 @@ pub const RR_DEPTH: u32 = 4;
 /// Highest survival probability of Russian roulette.
 pub const RR_MAX_SURVIVAL: f32 = 0.95;
 
+/// Russian roulette on a path of throughput `beta` after `depth` bounces: whether it goes on
+/// (not once its throughput is zero or not finite), `beta` divided by its survival probability.
+fn survives(beta: &mut Vec3, depth: u32, rng: &mut Rng) -> bool {
+    if depth >= RR_DEPTH {
+        let q = beta.max_element().min(RR_MAX_SURVIVAL);
+        if rng.next_f32() >= q {
+            return false;
+        }
+        *beta /= q;
+    }
+    *beta != Vec3::ZERO && beta.is_finite()
+}
+
 /// Invalid render settings.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[non_exhaustive]
@@ -398,14 +411,7 @@ impl<'a> PreparedScene<'a> {
                     break;
                 };
                 beta *= weight;
-                if depth >= RR_DEPTH {
-                    let q = beta.max_element().min(RR_MAX_SURVIVAL);
-                    if rng.next_f32() >= q {
-                        break;
-                    }
-                    beta /= q;
-                }
-                if beta == Vec3::ZERO || !beta.is_finite() {
+                if !survives(&mut beta, depth, rng) {
                     break;
                 }
                 depth += 1;
@@ -439,14 +445,7 @@ impl<'a> PreparedScene<'a> {
             } else {
                 origin
             };
-            if depth >= RR_DEPTH {
-                let q = beta.max_element().min(RR_MAX_SURVIVAL);
-                if rng.next_f32() >= q {
-                    break;
-                }
-                beta /= q;
-            }
-            if beta == Vec3::ZERO || !beta.is_finite() {
+            if !survives(&mut beta, depth, rng) {
                 break;
             }
             depth += 1;

@@ -129,18 +129,8 @@ pub fn form_factors(
         texel_patch[t as usize] = p as u32;
     }
     // The BVH over the prepared (VLF-space) triangles; `material` holds the face.
-    let tris: Vec<RtTriangle> = prep
-        .triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| RtTriangle {
-            p0: t.p0,
-            material: t.face,
-            p1: t.p1,
-            prim: i as u32,
-            p2: t.p2,
-            light: NONE,
-        })
+    let tris: Vec<RtTriangle> = (prep.triangles.iter().enumerate())
+        .map(|(i, t)| RtTriangle::of_baked(i, t))
         .collect();
     let mut charts = vec![Vec::new(); prep.faces.len()];
     for t in &prep.triangles {

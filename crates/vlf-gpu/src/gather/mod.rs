@@ -1,4 +1,4 @@
-//! The final gather on the GPU (issue 14): the texel estimators of `vlf_core::gather` (the
+//! The final gather on the GPU (`docs/GATHER.md`): the texel estimators of `vlf_core::gather` (the
 //! specification) in `shaders/gather_texels.wgsl`, one invocation per texel, with rays traced
 //! inline through the ray engine's BVH ([`crate::raytrace::GpuScene`]), the path tracer's light
 //! list and sampling code (`shaders/common/rt_scene.wgsl`, `sampling.wgsl`, `random.wgsl`), the
@@ -54,7 +54,7 @@ use crate::device::GpuFault;
 use crate::directions::GpuDirections;
 use crate::layout::{DirTables, GatherGlobals, RtSceneInfo};
 use crate::raytrace::{GpuScene, RaytraceError};
-use crate::readback::{read_buffer, storage_buffer};
+use crate::readback::read_buffer;
 use crate::render::RenderError;
 use crate::render::upload::float_tile_textures;
 use crate::wgpu_util::{
@@ -62,7 +62,8 @@ use crate::wgpu_util::{
 };
 use crate::{GpuContext, shaders};
 use grid::{contact_entries, grid_data};
-pub use plan::{GatherBuffer, GatherCounts, GatherPlan};
+pub use plan::{GatherBuffer, GatherCounts, GatherPlan, GatherRecord};
+use plan::{Planned, create, texture_bytes};
 
 /// Invocations per workgroup (`@workgroup_size` of `gather_texels.wgsl`).
 const WORKGROUP: u32 = 64;
@@ -395,16 +396,52 @@ pub fn final_gather_with(
     gp: &GatherParams,
     options: &GatherOptions,
 ) -> Result<Gathered, GpuGatherError> {
+    let mut record = GatherRecord::default();
+    final_gather_recorded(ctx, pipelines, scene, field, gp, options, &mut record)
+}
+
+/// [`final_gather_with`], recording what it allocated and the plans it allocated from in
+/// `record`.
+pub fn final_gather_recorded(
+    ctx: &GpuContext,
+    pipelines: &GatherPipelines,
+    scene: &Scene,
+    field: &Converged,
+    gp: &GatherParams,
+    options: &GatherOptions,
+    record: &mut GatherRecord,
+) -> Result<Gathered, GpuGatherError> {
     if !gp.sampling.is_fixed() || gp.denoise {
         return Err(GpuGatherError::Unsupported);
     }
     let grids = Grids::new(scene, field, gp)?;
     let ps = PreparedScene::new(scene);
     let device = &ctx.device;
+    let counts = GatherCounts::of(&ps, field, &grids);
+    let limits = device.limits();
+    let plan_with = |opts: &GatherOptions| {
+        let (limit, align) = (
+            limits.max_storage_buffer_binding_size,
+            limits.min_uniform_buffer_offset_alignment,
+        );
+        let plan = GatherPlan::new(&counts, gp, opts, limit, align);
+        plan.check(limit).map(|()| plan)
+    };
+    let plan = plan_with(options)?;
     let (ind, dir) = ctx.trap(|| -> Result<_, GpuGatherError> {
         let gpu_scene = GpuScene::upload(device, &ps)?;
+        record.shared = [
+            ("RayScene::nodes", &gpu_scene.nodes),
+            ("RayScene::triangles", &gpu_scene.triangles),
+            ("RayScene::masks", &gpu_scene.masks),
+            ("RayScene::blob", &gpu_scene.blob),
+            ("RayScene::info", &gpu_scene.info),
+        ]
+        .map(|(name, b)| (name.to_string(), b.size()))
+        .to_vec();
         let contacts = Contacts::new(&ps.bvh, scene, field.prep, options.threads);
-        let (field_bg, field_at) = field_bind_group(ctx, pipelines, field, &contacts)?;
+        let (field_bg, field_at) =
+            field_bind_group(ctx, pipelines, field, &contacts, &plan, &mut record.shared)?;
         let scene_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("FinalGather::scene_bind_group"),
             layout: &pipelines.scene_layout,
@@ -421,9 +458,16 @@ pub fn final_gather_with(
             gpu_scene.packed.emitter_count > 0,
             gpu_scene.packed.delta_count > 0,
         );
-        let run = |grid: &Grid, est: Estimator| {
+        let mut run = |i: usize, grid: &Grid, est: Estimator| {
             let mut opts = *options;
             loop {
+                let plan = plan_with(&opts)?;
+                record.grids[i].clear();
+                let planned = Planned {
+                    plan: &plan,
+                    grid: i,
+                    record: &mut record.grids[i],
+                };
                 let out = gather_grid(
                     ctx,
                     pipelines,
@@ -433,8 +477,10 @@ pub fn final_gather_with(
                     &est,
                     [&scene_bg, &field_bg],
                     field_at,
+                    planned,
                     &opts,
                 )?;
+                record.plans[i] = Some(plan);
                 if let Some(out) = out {
                     return Ok(out);
                 }
@@ -452,7 +498,7 @@ pub fn final_gather_with(
                 );
             }
         };
-        Ok((run(&grids.indirect, ind)?, run(&grids.direct, dir)?))
+        Ok((run(0, &grids.indirect, ind)?, run(1, &grids.direct, dir)?))
     })??;
     Ok(spec::assemble(
         &ps,
@@ -471,27 +517,6 @@ fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     }
 }
 
-/// A storage buffer of `data` (at least one element), checked against the binding limit.
-fn checked<T: bytemuck::Pod>(
-    device: &wgpu::Device,
-    label: &'static str,
-    data: &[T],
-    extra: wgpu::BufferUsages,
-) -> Result<wgpu::Buffer, GpuGatherError> {
-    let limit = device.limits().max_storage_buffer_binding_size;
-    let bytes = std::mem::size_of_val(data) as u64;
-    if bytes > limit {
-        return Err(GpuGatherError::TooLarge {
-            what: label,
-            bytes,
-            limit,
-        });
-    }
-    let one = [T::zeroed()];
-    let data = if data.is_empty() { &one[..] } else { data };
-    Ok(storage_buffer(device, label, data, extra))
-}
-
 /// Group 2: the converged field (directions, mirror tiles, propagation faces, dilated
 /// irradiance and the contact bits of its atlas, 16 texels' bytes per entry), and where the
 /// irradiance and the contact bits start in its buffer.
@@ -500,9 +525,13 @@ fn field_bind_group(
     pipelines: &GatherPipelines,
     field: &Converged,
     contacts: &Contacts,
+    plan: &GatherPlan,
+    record: &mut Vec<(String, u64)>,
 ) -> Result<(wgpu::BindGroup, [u32; 2]), GpuGatherError> {
     let device = &ctx.device;
     let dirs = GpuDirections::new(device, field.directions);
+    record.push(("Directions::tables".into(), dirs.tables.size()));
+    record.push(("Directions::mesh".into(), dirs.mesh.size()));
     let mut bytes = 0;
     let [words, values, frames] = float_tile_textures(
         device,
@@ -512,17 +541,24 @@ fn field_bind_group(
         field.directions,
         &mut bytes,
     )?;
+    for (name, view) in ["tile_words", "tile_values", "tile_frames"]
+        .iter()
+        .zip([&words, &values, &frames])
+    {
+        record.push((format!("Gather::{name}"), texture_bytes(view)));
+    }
     let mut data: Vec<[f32; 4]> = bytemuck::cast_slice(&field.prep.faces).to_vec();
     let irradiance_at = data.len() as u32;
     data.extend(spec::dilated_irradiance(field));
     let contacts_at = data.len() as u32;
     data.extend(contact_entries(contacts.bits()));
-    let data = checked(
+    let data = create(
         device,
-        "FinalGather::field",
-        &data,
+        plan.shared("FinalGather::field"),
         wgpu::BufferUsages::empty(),
-    )?;
+        Some(bytemuck::cast_slice(&data)),
+        record,
+    );
     let tex = |binding, view| wgpu::BindGroupEntry {
         binding,
         resource: wgpu::BindingResource::TextureView(view),
@@ -554,6 +590,11 @@ fn gather_grid(
     est: &Estimator,
     [scene_bg, field_bg]: [&wgpu::BindGroup; 2],
     [irradiance_at, contacts_at]: [u32; 2],
+    Planned {
+        plan,
+        grid: i,
+        record,
+    }: Planned,
     options: &GatherOptions,
 ) -> Result<Option<Vec<Option<Vec3>>>, GpuGatherError> {
     let device = &ctx.device;
@@ -563,35 +604,29 @@ fn gather_grid(
         return Ok(Some(Vec::new()));
     }
     let (data, [grid_texels, chart_start, chart_tris, chart_normals]) = grid_data(grid);
-    let data = checked(
-        device,
+    let mut create =
+        |name, usage, data: Option<&[u8]>| create(device, plan.grid(i, name), usage, data, record);
+    let data = create(
         "FinalGather::grid",
-        &data,
         wgpu::BufferUsages::empty(),
-    )?;
-    let out = checked(
-        device,
+        Some(bytemuck::cast_slice(&data)),
+    );
+    let zeros = vec![0u8; count as usize * 16];
+    let out = create(
         "FinalGather::out",
-        &vec![[0.0f32; 4]; count as usize],
         wgpu::BufferUsages::COPY_SRC,
-    )?;
-    let limit = device.limits().max_storage_buffer_binding_size;
-    let chunk = chunk_texels(est, options.chunk, count, limit)?;
-    let scratch = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("FinalGather::scratch"),
-        size: u64::from(chunk) * u64::from(est.scratch_stride()) * 16,
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
+        Some(&zeros),
+    );
+    let chunk = plan.chunks[i];
+    let scratch = create("FinalGather::scratch", wgpu::BufferUsages::empty(), None);
     let steps = steps(est, options);
     // One GatherGlobals per step, at a dynamic offset; rewritten for every chunk.
-    let stride = device.limits().min_uniform_buffer_offset_alignment.max(256);
-    let globals = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("FinalGather::globals"),
-        size: u64::from(stride) * steps.len() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let stride = plan.globals_stride;
+    let globals = create(
+        "FinalGather::globals",
+        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        None,
+    );
     let grid_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("FinalGather::grid_bind_group"),
         layout: &pipelines.grid_layout,

@@ -63,18 +63,35 @@ impl PackedScene {
     }
 }
 
-/// Packs the shading data of `prep` (see the module docs for the layout).
-pub fn pack(prep: &PreparedScene) -> PackedScene {
-    let mut blob: Vec<[f32; 4]> = Vec::new();
-    // TEXCOORD_1 only where a material reads it.
+/// Which triangles of `prep` (in leaf order) get an entry in the attribute section: those
+/// with shading normals, vertex colours, or a `TEXCOORD_1` where a material reads that set.
+fn has_attributes(prep: &PreparedScene) -> impl Iterator<Item = bool> {
     let uv1 = prep.materials.iter().any(|m| {
         (m.base_texture.is_some() && m.base_texcoord == 1)
             || (m.emissive_texture.is_some() && m.emissive_texcoord == 1)
     });
-    let mut attributes: Vec<[f32; 4]> = Vec::new();
-    for (uv, t) in prep.uvs.iter().zip(&prep.bvh.triangles) {
+    prep.bvh.triangles.iter().map(move |t| {
         let st = &prep.scene.triangles[t.prim as usize];
-        let extra = st.normals.is_some() || st.colors.is_some() || (uv1 && st.uv1.is_some());
+        st.normals.is_some() || st.colors.is_some() || (uv1 && st.uv1.is_some())
+    })
+}
+
+/// Triangles of `prep` with an entry in the attribute section ([`ATTRIBUTE_ENTRIES`] each).
+pub fn attributed_triangles(prep: &PreparedScene) -> usize {
+    has_attributes(prep).filter(|&a| a).count()
+}
+
+/// Packs the shading data of `prep` (see the module docs for the layout).
+pub fn pack(prep: &PreparedScene) -> PackedScene {
+    let mut blob: Vec<[f32; 4]> = Vec::new();
+    let mut attributes: Vec<[f32; 4]> = Vec::new();
+    for ((uv, t), extra) in prep
+        .uvs
+        .iter()
+        .zip(&prep.bvh.triangles)
+        .zip(has_attributes(prep))
+    {
+        let st = &prep.scene.triangles[t.prim as usize];
         let attr = if extra {
             let k = attributes.len() as u32 / ATTRIBUTE_ENTRIES;
             let flags = if st.normals.is_some() { ATTR_SMOOTH } else { 0 }

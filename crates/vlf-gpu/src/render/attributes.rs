@@ -1,4 +1,4 @@
-//! Per-corner attributes beyond `TEXCOORD_0` in the renderer (issue 25): shading normals,
+//! Per-corner attributes beyond `TEXCOORD_0` in the renderer (`docs/SHADING.md`): shading normals,
 //! vertex colours and `TEXCOORD_1`, and the irradiance continuity of smooth faces. Which light
 //! fields and faces need them, the corner data uploaded for pass 4b, the window's fused pass and
 //! traced hits (`super::upload`), and what the CPU specification of pass 5 reads at a pixel

@@ -2,15 +2,12 @@
 //! perspective-correctly over the flat triangle (= `DirectionSet::lookup`'s gnomonic weights).
 //! Component n belongs to pass 1's id n. Shader: `shaders/render_barycentrics.wgsl`.
 
+use super::pipelines::MeshPass;
 use super::targets::{BARYCENTRICS_FORMAT, Targets};
 use super::upload::GpuLightField;
-use super::{sphere_pass_layout, sphere_pipeline};
 use crate::shaders;
 
-pub struct BarycentricsPass {
-    pipeline: wgpu::RenderPipeline,
-    bind_group: wgpu::BindGroup,
-}
+pub struct BarycentricsPass(MeshPass);
 
 impl BarycentricsPass {
     pub fn new(
@@ -18,19 +15,15 @@ impl BarycentricsPass {
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
     ) -> Self {
-        let (pass_layout, bind_group) = sphere_pass_layout(device, "Barycentrics", lf);
-        let pipeline = sphere_pipeline(
+        let shader = &shaders::RENDER_BARYCENTRICS;
+        Self(MeshPass::sphere(
             device,
             "Barycentrics",
-            &shaders::RENDER_BARYCENTRICS,
+            shader,
             globals_layout,
-            &pass_layout,
+            lf,
             BARYCENTRICS_FORMAT,
-        );
-        Self {
-            pipeline,
-            bind_group,
-        }
+        ))
     }
 
     /// Clears the target (zero weights) and draws the sphere mesh.
@@ -42,20 +35,12 @@ impl BarycentricsPass {
         lf: &GpuLightField,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("Barycentrics::pass"),
-            color_attachments: &[Some(super::color_attachment(
-                &targets.barycentrics_view,
-                wgpu::Color::TRANSPARENT,
-            ))],
-            depth_stencil_attachment: None,
-            timestamp_writes: timestamps,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, globals, &[]);
-        pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.draw(0..lf.sphere_triangle_count * 3, 0..1);
+        let zero = wgpu::Color::TRANSPARENT;
+        let color = [Some(super::color_attachment(
+            &targets.barycentrics_view,
+            zero,
+        ))];
+        let vertices = lf.sphere_triangle_count * 3;
+        (self.0).encode(encoder, globals, targets, &color, vertices, timestamps);
     }
 }

@@ -353,13 +353,10 @@ impl FinalRadiancePass {
                 "vs_surface",
                 "fs_surface",
                 format,
-                Some(wgpu::DepthStencilState {
-                    format: depth_format,
-                    depth_write_enabled: Some(false),
-                    depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                    stencil: variant.stencil.map(stencil).unwrap_or_default(),
-                    bias: Default::default(),
-                }),
+                Some(super::pipelines::pass_three_depth(
+                    depth_format,
+                    variant.stencil.map(stencil).unwrap_or_default(),
+                )),
             ),
         };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -415,13 +412,10 @@ impl FinalRadiancePass {
                 buffers: &[],
             },
             primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: depth_format,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
+            depth_stencil: Some(super::pipelines::pass_three_depth(
+                depth_format,
+                Default::default(),
+            )),
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module,

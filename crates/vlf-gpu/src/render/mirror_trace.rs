@@ -1,4 +1,4 @@
-//! Pass 5's traced branch for mirror and glossy pixels (issue 15 part 1, issue 16; VLF 2004
+//! Pass 5's traced branch for mirror and glossy pixels (VLF 2004
 //! §5: "only ES*D rays must be computed"): the scene's BVH for it and its CPU specification.
 //!
 //! Where the visible face is a mirror or a mixed face, pass 5 replaces the specular part read
@@ -8,7 +8,7 @@
 //! * the chain follows further mirror faces, multiplying their reflectance (specular weight ×
 //!   base colour × base-colour texture at the point, [`specular_reflectance`]), up to
 //!   [`MAX_DEPTH`] mirrors including the visible one — the bound and the rules of
-//!   `vlf_core::resample` (issue 15 part 2), which computes the same chain once per tile cell;
+//!   `vlf_core::resample`, which computes the same chain once per tile cell;
 //! * at the first diffuse face it reads the light field exactly as pass 5 reads a visible point
 //!   (`Le(uv)` on the front, `ρ_d(uv)/π ·` atlas irradiance, at the hit's own point and uv:
 //!   the same WGSL function);
@@ -28,7 +28,7 @@
 //! ends such a path too), not cut. Vertex colours multiply the reflectance C as they multiply
 //! the base colour, and textures read the set their slot names ([`PixelSurface`]).
 //!
-//! A glossy visible face (GGX α > 0 in its material, issue 16) traces [`LOBE_SAMPLES`]
+//! A glossy visible face (GGX α > 0 in its material) traces [`LOBE_SAMPLES`]
 //! directions of its lobe per pass-5 sample instead of the one mirror direction, each chain
 //! following the rules above (further mirrors reflect as perfect mirrors); the share of them
 //! that is cut off reads the tiles. The light field resolves directions only to its spacing
@@ -96,14 +96,7 @@ pub fn build_bvh(lf: &LightField) -> Bvh {
         .triangles
         .iter()
         .enumerate()
-        .map(|(i, t)| RtTriangle {
-            p0: t.p0,
-            material: t.face,
-            p1: t.p1,
-            prim: i as u32,
-            p2: t.p2,
-            light: vlf_core::pathtrace::NONE,
-        })
+        .map(|(i, t)| RtTriangle::of_baked(i, t))
         .collect();
     Bvh::build(tris).with_masks(std::sync::Arc::new(lf.alpha_masks()))
 }

@@ -45,7 +45,7 @@
 //! that only read the radiance back (~20 %). Also measured: per-pixel data read by pass 5
 //! (atlas, face records) lives in textures, not storage buffers (see [`upload`]).
 //!
-//! Later (issue 17), with per-pixel albedo in pass 5, CPU time per frame of the default
+//! Later, with per-pixel albedo in pass 5, CPU time per frame of the default
 //! Cornell bake (llvmpipe on 2 cores, which runs the shaders; `docs/PERFORMANCE.md`): passes
 //! 1–2 ~11 ms of 66, and each texel fetch of pass 5 3–4 ms (face id and position 8, the face
 //! record's five texels 16, the atlas's four 8). Hence, for the window's final image, pass 4
@@ -91,7 +91,7 @@ use upload::GpuLightField;
 // Helpers of the pass modules, which reach them as `super::…`.
 pub(crate) use crate::wgpu_util::{storage_entry, texture_entry};
 pub(crate) use pipelines::color_attachment;
-use pipelines::{geometry_pass_layout, geometry_pipeline, sphere_pass_layout, sphere_pipeline};
+use pipelines::{geometry_pass_layout, geometry_pipeline};
 
 /// Face id written where no surface is seen.
 pub const NO_FACE: u32 = u32::MAX;

@@ -1,6 +1,8 @@
 //! Helpers shared by the render pass modules: bind-group layout entries, the group-1 layouts of
-//! the sphere-mesh passes (1, 2) and the scene-geometry passes (3, 4), colour attachments and the
-//! vertex-pulling render pipeline. Each pass still owns its objects and labels them.
+//! the sphere-mesh passes (1, 2) and the scene-geometry passes (3, 4), colour attachments, the
+//! vertex-pulling render pipeline, the depth test against pass 3's depth, and [`MeshPass`], the
+//! pipeline and render pass of passes 1, 2, 4 and 4b. Each pass still owns its objects and
+//! labels them.
 
 use super::upload::GpuLightField;
 use crate::wgpu_util::storage_entry;
@@ -17,6 +19,135 @@ pub(crate) fn color_attachment(
             load: wgpu::LoadOp::Clear(clear),
             store: wgpu::StoreOp::Store,
         },
+    }
+}
+
+/// Depth test against pass 3's depth buffer of `format`: greater or equal (reverse-Z: only the
+/// visible surface, or where no face is seen the background at depth 0, passes), no writes,
+/// with `stencil`. What pass 4, pass 4b and the window's fused pass 5 and sky draw with.
+pub(super) fn pass_three_depth(
+    format: wgpu::TextureFormat,
+    stencil: wgpu::StencilState,
+) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(false),
+        depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+        stencil,
+        bias: Default::default(),
+    }
+}
+
+/// A pass drawing one of the light field's meshes with its pipeline, group 0 the globals and
+/// group 1 its own bind group: passes 1 and 2 (the sphere mesh, [`MeshPass::sphere`]) and 4 and
+/// 4b (the scene over pass 3's depth, [`MeshPass::over_pass_three`]).
+pub(super) struct MeshPass {
+    /// The pass's name, for labels (`"{pass}::thing"`).
+    pass: &'static str,
+    pipeline: wgpu::RenderPipeline,
+    bind_group: wgpu::BindGroup,
+    /// Drawn against pass 3's depth (loaded and kept), and its stencil where `Some(true)`.
+    over_pass_three: Option<bool>,
+}
+
+impl MeshPass {
+    /// A pass of the sphere mesh writing `format`, no depth.
+    pub(super) fn sphere(
+        device: &wgpu::Device,
+        pass: &'static str,
+        shader: &crate::shaders::Shader,
+        globals_layout: &wgpu::BindGroupLayout,
+        lf: &GpuLightField,
+        format: wgpu::TextureFormat,
+    ) -> Self {
+        let (pass_layout, bind_group) = sphere_pass_layout(device, pass, lf);
+        let pipeline = render_pipeline(
+            device,
+            pass,
+            shader,
+            globals_layout,
+            &pass_layout,
+            &[format],
+            None,
+            ("vs_main", "fs_main"),
+        );
+        Self {
+            pass,
+            pipeline,
+            bind_group,
+            over_pass_three: None,
+        }
+    }
+
+    /// A pass of the scene's triangles against pass 3's depth (of `depth_format`:
+    /// [`pass_three_depth`], only the visible surface is shaded) writing `formats`, its group 1
+    /// the light field's `buffers` (vertex stage, in binding order) and its alpha masks.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn over_pass_three(
+        device: &wgpu::Device,
+        pass: &'static str,
+        shader: &crate::shaders::Shader,
+        globals_layout: &wgpu::BindGroupLayout,
+        lf: &GpuLightField,
+        buffers: &[&wgpu::Buffer],
+        formats: &[wgpu::TextureFormat],
+        depth_format: wgpu::TextureFormat,
+    ) -> Self {
+        let (pass_layout, bind_group) =
+            geometry_pass_layout(device, pass, buffers, &lf.alpha_masks);
+        let pipeline = geometry_pipeline(
+            device,
+            pass,
+            shader,
+            globals_layout,
+            &pass_layout,
+            formats,
+            pass_three_depth(depth_format, Default::default()),
+            lf.has_masks,
+        );
+        Self {
+            pass,
+            pipeline,
+            bind_group,
+            over_pass_three: Some(depth_format == super::targets::DEPTH_STENCIL_FORMAT),
+        }
+    }
+
+    /// Draws `vertices` into `color` (and pass 3's depth and stencil, loaded and kept).
+    pub(super) fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        globals: &wgpu::BindGroup,
+        targets: &super::targets::Targets,
+        color: &[Option<wgpu::RenderPassColorAttachment<'_>>],
+        vertices: u32,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
+    ) {
+        fn keep<V>() -> wgpu::Operations<V> {
+            wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            }
+        }
+        let depth = self
+            .over_pass_three
+            .map(|stencil| wgpu::RenderPassDepthStencilAttachment {
+                view: &targets.depth_view,
+                depth_ops: Some(keep()),
+                stencil_ops: stencil.then(keep),
+            });
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(&format!("{}::pass", self.pass)),
+            color_attachments: color,
+            depth_stencil_attachment: depth,
+            timestamp_writes: timestamps,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, globals, &[]);
+        pass.set_bind_group(1, &self.bind_group, &[]);
+        pass.draw(0..vertices, 0..1);
     }
 }
 
@@ -145,26 +276,6 @@ fn render_pipeline(
         multiview_mask: None,
         cache: None,
     })
-}
-
-pub(super) fn sphere_pipeline(
-    device: &wgpu::Device,
-    pass: &str,
-    shader: &crate::shaders::Shader,
-    globals_layout: &wgpu::BindGroupLayout,
-    pass_layout: &wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
-) -> wgpu::RenderPipeline {
-    render_pipeline(
-        device,
-        pass,
-        shader,
-        globals_layout,
-        pass_layout,
-        &[format],
-        None,
-        ("vs_main", "fs_main"),
-    )
 }
 
 /// A scene-geometry pass's pipeline; `masked` draws with the entry points that discard the

@@ -1,6 +1,7 @@
 //! The per-pixel outputs of the five passes, sized to the view, and texture readback.
 
 use super::RenderError;
+use crate::wgpu_util::texture_2d;
 
 /// Pass 1 output: three sphere-vertex ids + triangle index.
 pub const DIRECTION_IDS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
@@ -85,24 +86,11 @@ impl Targets {
                 limit: max_binding,
             });
         }
-        let sized = |label: &str, format, (width, height): (u32, u32)| {
+        let sized = |label: &str, format, size: (u32, u32)| {
             let written = wgpu::TextureUsages::RENDER_ATTACHMENT;
             let usage =
                 written | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC;
-            let t = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            });
+            let t = texture_2d(device, label, size, format, usage);
             let v = t.create_view(&wgpu::TextureViewDescriptor {
                 label: Some(&format!("{label}_view")),
                 ..Default::default()
@@ -164,20 +152,8 @@ pub fn readback_target(
     height: u32,
     format: wgpu::TextureFormat,
 ) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    })
+    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
+    texture_2d(device, label, (width, height), format, usage)
 }
 
 /// Reads a whole 2D texture of `texel_bytes`-byte texels back as `T`s, row 0 first, blocking.

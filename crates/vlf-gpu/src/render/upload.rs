@@ -145,10 +145,13 @@ pub fn tiles_layout(
     })
 }
 
+/// Words before the tile index's arrays in [`tile_words`].
+pub const TILE_HEADER_WORDS: u32 = 8;
+
 /// The tile index words of the mirror-tile textures (see the module docs): the header, then
 /// the packed arrays of `ix`, padded to whole texels.
 pub fn tile_words(ix: &TileIndex) -> Vec<u32> {
-    let mut w = vec![0u32; 8];
+    let mut w = vec![0u32; TILE_HEADER_WORDS as usize];
     let push = |part: &[u32], w: &mut Vec<u32>| {
         let off = w.len() as u32;
         w.extend_from_slice(part);
@@ -158,7 +161,7 @@ pub fn tile_words(ix: &TileIndex) -> Vec<u32> {
     let o1 = push(&ix.index_start, &mut w);
     let o2 = push(&ix.tile_ids, &mut w);
     let o3 = push(&ix.coverage, &mut w);
-    w[..8].copy_from_slice(&[
+    w[..TILE_HEADER_WORDS as usize].copy_from_slice(&[
         ix.directions,
         ix.m,
         ix.n,
@@ -613,6 +616,14 @@ fn texel_bytes(format: wgpu::TextureFormat) -> usize {
 /// an upload never holds more than this in extra host memory, however large the texture).
 const UPLOAD_BAND_BYTES: usize = 8 << 20;
 
+/// Width and rows of a texture of `count` texels wrapped into rows of `width` (narrower when
+/// there are fewer; at least one texel).
+pub fn wrapped_extent(count: u64, width: u32) -> (u32, u64) {
+    let n = count.max(1);
+    let width = n.min(u64::from(width)) as u32;
+    (width, n.div_ceil(u64::from(width)))
+}
+
 /// A 2D texture of `format` holding `count` texels wrapped into rows of `width` (narrower
 /// when there are fewer; at least one texel, the rest of the last row zero), filled in bands
 /// of rows: `fill(first, out)` writes texels `first..` into `out` (whole texels, 8-byte
@@ -630,8 +641,7 @@ fn banded_texture(
 ) -> Result<wgpu::TextureView, RenderError> {
     let texel = texel_bytes(format);
     let n = count.max(1) as u64;
-    let width = (n.min(u64::from(width))) as u32;
-    let rows = n.div_ceil(u64::from(width));
+    let (width, rows) = wrapped_extent(count as u64, width);
     let max = device.limits().max_texture_dimension_2d;
     if rows > u64::from(max) {
         return Err(RenderError::TooLarge {
@@ -643,20 +653,8 @@ fn banded_texture(
     let rows = rows as usize;
     let row_bytes = width as usize * texel;
     *bytes += (rows * row_bytes) as u64;
-    let texture = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d {
-            width,
-            height: rows as u32,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+    let texture = crate::wgpu_util::texture_2d(device, label, (width, rows as u32), format, usage);
     let band_rows = (UPLOAD_BAND_BYTES / row_bytes).clamp(1, rows);
     // u64s: an 8-byte aligned buffer, reused for every band.
     let mut band = vec![0u64; (band_rows * row_bytes).div_ceil(8)];

@@ -208,19 +208,32 @@ pub fn tile_power(
     set: &DirectionSet,
     grid: &PsfGrid,
 ) -> f64 {
+    let mut p = 0f64;
+    each_tile(index, set, grid, |cells, a, omega| {
+        for v in &values[cells] {
+            p += sum3(Vec4::from(*v).truncate()) * a * omega;
+        }
+    });
+    p
+}
+
+/// Calls `f(values, a, ω)` for every stored tile in index order: the range of its values
+/// (both senses), the area a of a ray cell and the solid angle ω of its fixed direction.
+fn each_tile(
+    index: &TileIndex,
+    set: &DirectionSet,
+    grid: &PsfGrid,
+    mut f: impl FnMut(std::ops::Range<usize>, f64, f64),
+) {
     let m2 = (index.m * index.m) as usize;
     let a = f64::from(grid.cell_size() * grid.cell_size());
-    let mut p = 0f64;
     for k in 0..index.index_start.len() - 1 {
         let j = k % index.directions as usize;
         let omega = f64::from(set.solid_angle(j as u32));
         for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
-            for v in &values[slot * 2 * m2..(slot + 1) * 2 * m2] {
-                p += sum3(Vec4::from(*v).truncate()) * a * omega;
-            }
+            f(slot * 2 * m2..(slot + 1) * 2 * m2, a, omega);
         }
     }
-    p
 }
 
 /// Power the glossy lobes absorbed in one iteration: the fourth components the reflect step
@@ -232,19 +245,13 @@ pub fn take_tile_loss(
     set: &DirectionSet,
     grid: &PsfGrid,
 ) -> f64 {
-    let m2 = (index.m * index.m) as usize;
-    let a = f64::from(grid.cell_size() * grid.cell_size());
     let mut p = 0f64;
-    for k in 0..index.index_start.len() - 1 {
-        let j = k % index.directions as usize;
-        let omega = f64::from(set.solid_angle(j as u32));
-        for slot in index.index_start[k] as usize..index.index_start[k + 1] as usize {
-            for v in &mut values[slot * 2 * m2..(slot + 1) * 2 * m2] {
-                p += f64::from(v[3]) * a * omega;
-                v[3] = 0.0;
-            }
+    each_tile(index, set, grid, |cells, a, omega| {
+        for v in &mut values[cells] {
+            p += f64::from(v[3]) * a * omega;
+            v[3] = 0.0;
         }
-    }
+    });
     p
 }
 

@@ -23,7 +23,7 @@ pub struct Interface {
     pub last: bool,
 }
 
-/// The energy a direction's light spends in panes (issue 25), for the bookkeeping: summed
+/// The energy a direction's light spends in thin glass panes, for the bookkeeping: summed
 /// over the direction's rays like the specular escape.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PaneEnergy {

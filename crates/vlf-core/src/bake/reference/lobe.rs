@@ -1,4 +1,4 @@
-//! The glossy reflect weights (issue 16): how light arriving on a face with a GGX metal lobe
+//! The glossy reflect weights (`docs/PROPAGATION.md`): how light arriving on a face with a GGX metal lobe
 //! from each transport direction is spread over the fixed directions of the lobe.
 //!
 //! For a face with unit normal n, take the side that faces +n (the other side is its point

@@ -1,4 +1,4 @@
-//! What each iteration shoots (issue 24): the texels' unshot (residual) radiance, accelerated
+//! What each iteration shoots (`docs/PROPAGATION.md`): the texels' unshot (residual) radiance, accelerated
 //! by Chebyshev semi-iteration once the iteration's contraction is measured. Shared by the CPU
 //! and GPU propagators, on the host, after [`super::finish_iteration`].
 //!

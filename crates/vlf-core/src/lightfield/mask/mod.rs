@@ -20,7 +20,8 @@ use glam::Vec2;
 
 use super::encoding::{f16_decode, f16_encode};
 use super::shading::{
-    NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture, texel_axis, texture_alpha,
+    NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture, finite_uv, surface_textures, texel_alpha,
+    texel_axis,
 };
 use crate::scene::{Scene, WrapMode};
 
@@ -160,36 +161,12 @@ impl AlphaMasks {
         if !materials.iter().any(SurfaceMaterial::masks) {
             return AlphaMasks::default();
         }
-        let textures: Vec<SurfaceTexture> = scene
-            .textures
-            .iter()
-            .map(|t| SurfaceTexture {
-                width: t.width,
-                height: t.height,
-                wrap_s: t.wrap_s,
-                wrap_t: t.wrap_t,
-            })
-            .collect();
-        let alpha = |t: usize, i: usize| {
-            scene.textures[t]
-                .pixels
-                .get(i)
-                .map_or(f16_encode(1.0), |p| texture_alpha(p.w))
-        };
+        let alpha = |t: usize, i: usize| texel_alpha(&scene.textures[t], i);
         Self::build(
             &materials,
-            &textures,
+            &surface_textures(scene),
             &alpha,
-            scene.triangles.iter().map(|t| {
-                let uv = t.uv.map(|uv| {
-                    if uv.is_finite() {
-                        uv.to_array()
-                    } else {
-                        [0.0; 2]
-                    }
-                });
-                (t.material, uv)
-            }),
+            (scene.triangles.iter()).map(|t| (t.material, t.uv.map(finite_uv))),
         )
     }
 
