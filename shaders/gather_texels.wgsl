@@ -17,6 +17,12 @@
 //   is smooth, its rays, light samples and delta lights are taken about the interpolated normal
 //   there (point_normal), from the geometric face, and directions below the geometric surface
 //   bring nothing (vlf_core::gather::below).
+// * thin glass panes (common/pane_trace.wgsl, vlf_core::gather::through): every ray goes on
+//   through panes. A cosine ray sees the sky or an emitter behind a window weighted by the
+//   panes' transmittance, a shadow ray towards a light sample, a sun, a point or a spot light is
+//   attenuated instead of stopped, an indirect ray reads what each pane it crosses sends back
+//   (its tiles and diffuse part) as well as the field behind it, and the openness probes count a
+//   pane, or a surface light crosses (thin diffuse transmission), as open.
 //
 // Steps. A texel's estimate is split into steps, one dispatch each, in the order the CPU draws:
 // begin (stream, class), draw_points (a batch of points each), finish_points (centroid
@@ -40,6 +46,7 @@
 #import "common/directions.wgsl"
 #import "common/mirror_tiles.wgsl"
 #import "common/gather_field.wgsl"
+#import "common/pane_trace.wgsl"
 
 // Per-dispatch globals (mirrors vlf_gpu::layout::GatherGlobals).
 struct GatherGlobals {
@@ -313,10 +320,35 @@ fn tri_normal_raw(t: RtTriangle) -> vec3<f32> {
     return cross(t.p1 - t.p0, t.p2 - t.p0);
 }
 
+// Openness::closes: whether anything but a pane lies within gg.r_close of `origin` along n (a
+// pane passes light, so a gap under one is lit).
+fn closes(origin: vec3<f32>, n: vec3<f32>) -> bool {
+    if scene_info.has_panes == 0u {
+        return trace(Ray(origin, 0.0, n, gg.r_close), true).tri != NONE;
+    }
+    var start = origin;
+    var left = gg.r_close;
+    for (var i = 0u; i < MAX_PANES; i++) {
+        let hit = trace(Ray(start, 0.0, n, left), false);
+        if hit.tri == NONE {
+            return false;
+        }
+        let tri = triangles[hit.tri];
+        if (material(tri.material).openness & MAT_PANE) == 0u {
+            return true;
+        }
+        let q = tri.p0 * (1.0 - hit.u - hit.v) + tri.p1 * hit.u + tri.p2 * hit.v;
+        let ng = tri_normal_raw(tri);
+        start = offset_origin(q, select(-normalize(ng), normalize(ng), dot(ng, n) > 0.0));
+        left -= hit.t;
+    }
+    return true;
+}
+
 // Openness::is_open: point p of a surface whose lit side has unit normal n.
 fn is_open(p: vec3<f32>, n: vec3<f32>) -> bool {
     let origin = offset_origin(p, n);
-    if trace(Ray(origin, 0.0, n, gg.r_close), true).tri != NONE {
+    if closes(origin, n) {
         return false;
     }
     let t = basis_t(n);
@@ -331,7 +363,13 @@ fn is_open(p: vec3<f32>, n: vec3<f32>) -> bool {
     for (var k = 0u; k < 3u; k++) {
         let d = dirs[k];
         let hit = trace(Ray(origin, 0.0, d, FAR), false);
-        if hit.tri == NONE || dot(tri_normal_raw(triangles[hit.tri]), d) <= 0.0 {
+        var front = hit.tri == NONE;
+        if !front {
+            // A pane or a see-through wall passes light: it counts as open.
+            let tri = triangles[hit.tri];
+            front = material(tri.material).openness != 0u || dot(tri_normal_raw(tri), d) <= 0.0;
+        }
+        if front {
             open++;
         }
         if open == 2u || open + 1u == k {
@@ -641,10 +679,25 @@ fn indirect_rays(
         if below(ns, n, dir) {
             continue;
         }
-        let hit = trace(Ray(offset_origin(point(k), n), 0.0, dir, FAR), false);
-        if hit.tri != NONE {
-            sum += field_radiance(dir, hit);
+        // Through panes: each sends back what it reflects, then the field behind them
+        // (Gatherer::gather_ray over through::trace).
+        var ray = Ray(offset_origin(point(k), n), 0.0, dir, FAR);
+        var throughput = vec3<f32>(1.0);
+        var l = vec3<f32>(0.0);
+        for (var i = 0u; i < MAX_PANES; i++) {
+            let hit = trace(ray, false);
+            if hit.tri == NONE {
+                break;
+            }
+            let passed = pane_pass(hit, dir, 0u);
+            l += throughput * field_radiance(dir, hit);
+            if passed.w == 0.0 {
+                break;
+            }
+            throughput *= passed.xyz;
+            ray = Ray(pane_beyond(hit, dir), 0.0, dir, FAR);
         }
+        sum += l;
     }
     s.rng = rng;
     s.sum = sum;
@@ -715,9 +768,13 @@ fn light_samples(
         let w = power_heuristic(fl * pdf_l, fb * pdf_b);
         let origin = offset_origin(p, n);
         let aim = offset_origin(x, nl);
-        if w > 0.0 && trace(Ray(origin, 0.0, aim - origin, 1.0), true).tri == NONE {
-            let le = emission_at(et, bary.x, bary.y);
-            s.sum += le * (w * cos_r / (pdf_l * fl));
+        if w > 0.0 {
+            // Through panes, attenuated.
+            let passed = segment_transmittance(origin, aim - origin, 0u);
+            if any(passed != vec3<f32>(0.0)) {
+                let le = emission_at(et, bary.x, bary.y);
+                s.sum += le * (w * cos_r / (pdf_l * fl)) * passed;
+            }
         }
     }
     s.rng = rng;
@@ -754,9 +811,11 @@ fn cosine_rays(
         if below(ns, n, dir) {
             continue;
         }
-        let hit = trace(Ray(offset_origin(p, n), 0.0, dir, FAR), false);
+        // Through panes, attenuated (hit.t the whole distance, for the light samples' pdf).
+        let traced = trace_through_panes(offset_origin(p, n), dir);
+        let hit = traced.hit;
         if hit.tri == NONE {
-            s.sum += gg.sky.xyz * (PI / fb);
+            s.sum += gg.sky.xyz * (PI / fb) * traced.throughput;
             continue;
         }
         let ht = triangles[hit.tri];
@@ -771,7 +830,7 @@ fn cosine_rays(
         let pdf_l = emitter_pdf(ht.light, hit.t, cos_l) / scene_info.p_emitters;
         let w = power_heuristic(fb * pdf_b, fl * pdf_l);
         let le = emission_at(hit.tri, hit.u, hit.v);
-        s.sum += le * (w * PI / fb);
+        s.sum += le * (w * PI / fb) * traced.throughput;
     }
     s.rng = rng;
     end_step(&s);
@@ -801,9 +860,12 @@ fn delta_rays(
         for (var i = 0u; i < scene_info.delta_count; i++) {
             let inc = delta_incident(i, p);
             let c = dot(ns, inc.wi);
-            if c > 0.0 && !below(ns, s.n, inc.wi)
-                && trace(delta_shadow_ray(i, origin, inc), true).tri == NONE {
-                s.sun += inc.irradiance * c;
+            if c > 0.0 && !below(ns, s.n, inc.wi) {
+                // Through panes, attenuated.
+                let passed = shadow_transmittance(delta_shadow_ray(i, origin, inc), 0u);
+                if any(passed != vec3<f32>(0.0)) {
+                    s.sun += inc.irradiance * c * passed;
+                }
             }
         }
     }

@@ -13,6 +13,7 @@
 #import "common/rt_scene.wgsl"
 #import "common/random.wgsl"
 #import "common/sampling.wgsl"
+#import "common/pane_trace.wgsl"
 
 // Per-render globals (mirrors vlf_gpu::layout::RtGlobals). Blob offsets are in vec4 units.
 struct RtGlobals {
@@ -40,7 +41,8 @@ struct RtGlobals {
     tile_count: u32,
 }
 
-// Path state (mirrors vlf_gpu::layout::RtPath). In region S: throughput = NEE contribution.
+// Path state (mirrors vlf_gpu::layout::RtPath). In region S: throughput = NEE contribution, and
+// depth = SHADOW_THROUGH_PANES when the shadow ray goes on through panes (a delta light's).
 // pdf < 0: the last bounce was a delta (or camera) sample.
 struct RtPath {
     throughput: vec3<f32>,
@@ -72,6 +74,8 @@ struct RtPath {
 var<workgroup> wg_shadow: atomic<u32>;
 
 const RR_MAX_SURVIVAL: f32 = 0.95;
+// A shadow record (region S) whose ray passes panes, attenuated (see RtPath).
+const SHADOW_THROUGH_PANES: u32 = 1u;
 
 
 // ---------------------------------------------------------------------------------------------
@@ -86,7 +90,7 @@ fn bsdf_eval(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, wi: vec
     }
     var f = color * (m.w_diffuse * INV_PI);
     var pdf = m.w_diffuse * cos_i * INV_PI;
-    let w_metal = 1.0 - m.w_diffuse;
+    let w_metal = 1.0 - m.w_diffuse - m.w_pane;
     if m.alpha > 0.0 && w_metal > 0.0 {
         let h = normalize(wi + wo);
         let d = ggx_d(max(dot(n, h), 0.0), m.alpha);
@@ -101,16 +105,26 @@ fn bsdf_eval(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, wi: vec
 struct BsdfSample {
     wi: vec3<f32>,
     weight: vec3<f32>,
-    // solid-angle pdf; -1 for the delta lobe, 0 for no sample
+    // solid-angle pdf; -1 for the delta lobes (mirror, pane), 0 for no sample
     pdf: f32,
+    // Whether it passed through the pane (wi = -wo, on the other side of the surface).
+    transmitted: bool,
 }
 
 fn bsdf_sample(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BsdfSample {
     var wi: vec3<f32>;
     if u_lobe < m.w_diffuse {
         wi = to_world(cosine_hemisphere(u), n);
+    } else if u_lobe < m.w_diffuse + m.w_pane {
+        // The pane: reflect with probability R(θ), else pass straight through (the lobe's
+        // choice probabilities cancel its weights; the transmission is tinted).
+        let r = pane_reflectance(dot(n, wo), m.ior);
+        if (u_lobe - m.w_diffuse) < m.w_pane * r {
+            return BsdfSample(normalize(reflect_about(wo, n)), vec3<f32>(1.0), -1.0, false);
+        }
+        return BsdfSample(-wo, color, -1.0, true);
     } else if m.alpha == 0.0 {
-        return BsdfSample(normalize(reflect_about(wo, n)), color, -1.0);
+        return BsdfSample(normalize(reflect_about(wo, n)), color, -1.0, false);
     } else {
         let wo_l = to_local(wo, n);
         let h = ggx_sample_vndf(normalize(wo_l), m.alpha, u);
@@ -118,13 +132,13 @@ fn bsdf_sample(m: Material, color: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, u_lob
     }
     let cos_i = dot(n, wi);
     if cos_i <= 0.0 {
-        return BsdfSample(wi, vec3<f32>(0.0), 0.0);
+        return BsdfSample(wi, vec3<f32>(0.0), 0.0, false);
     }
     let e = bsdf_eval(m, color, n, wo, wi);
     if e.w <= 0.0 {
-        return BsdfSample(wi, vec3<f32>(0.0), 0.0);
+        return BsdfSample(wi, vec3<f32>(0.0), 0.0, false);
     }
-    return BsdfSample(wi, e.xyz * (cos_i / e.w), e.w);
+    return BsdfSample(wi, e.xyz * (cos_i / e.w), e.w, false);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -136,6 +150,9 @@ struct Vertex {
     // NEE: shadow ray (tmax < 0: none) and its unoccluded contribution (throughput applied)
     shadow: Ray,
     shadow_contrib: vec3<f32>,
+    // Whether the shadow ray goes on through panes, attenuated (a delta light's in a scene
+    // with panes: PreparedScene::shadow_transmittance); an emitter's stops at a pane.
+    shadow_panes: bool,
     // continuation ray (tmax < 0: the path ends)
     next: Ray,
 }
@@ -154,7 +171,7 @@ fn shade_vertex(p: ptr<function, RtPath>, ray: Ray, hit: Hit) -> Vertex {
 }
 
 fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hit) -> Vertex {
-    var out = Vertex(vec3<f32>(0.0), no_ray(), vec3<f32>(0.0), no_ray());
+    var out = Vertex(vec3<f32>(0.0), no_ray(), vec3<f32>(0.0), false, no_ray());
     let beta = (*p).throughput;
     if hit.tri == NONE {
         out.emitted = beta * g.sky.xyz;
@@ -187,7 +204,8 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
     let u_class = rng_f32(r);
     let u_light = rng_f32(r);
     let u_point = rng_2d(r);
-    if m.w_diffuse > 0.0 || m.alpha > 0.0 {
+    // Only a BSDF with a non-delta part (SurfaceMaterial::has_smooth_part).
+    if m.w_diffuse > 0.0 || (m.alpha > 0.0 && 1.0 - m.w_diffuse - m.w_pane > 0.0) {
         if u_class < scene_info.p_emitters {
             let e = blob[scene_info.emitter_base + pick_emitter(u_light)];
             let lt = triangles[bitcast<u32>(e.x)];
@@ -224,6 +242,9 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
                 if any(contrib > vec3<f32>(0.0)) {
                     out.shadow = delta_shadow_ray(li, origin, inc);
                     out.shadow_contrib = contrib;
+                    // A delta light reaches through panes (no path could find it otherwise:
+                    // a delta light behind a delta transmission).
+                    out.shadow_panes = scene_info.has_panes != 0u;
                 }
             }
         }
@@ -249,7 +270,12 @@ fn shade_with(p: ptr<function, RtPath>, r: ptr<function, Rng>, ray: Ray, hit: Hi
     (*p).throughput = nb;
     (*p).depth += 1u;
     (*p).pdf = s.pdf;
-    out.next = Ray(origin, 0.0, s.wi, FAR);
+    // Through a pane the path goes on from the surface's other side.
+    var start = origin;
+    if s.transmitted {
+        start = offset_origin(pos, -n);
+    }
+    out.next = Ray(start, 0.0, s.wi, FAR);
     return out;
 }
 
@@ -345,7 +371,8 @@ fn shade(
     add_radiance(p.slot, v.emitted);
     if v.shadow.tmax > 0.0 {
         rays[si] = v.shadow;
-        paths[si] = RtPath(v.shadow_contrib, p.slot, 0u, 0u, 0u, 0.0);
+        let through = select(0u, SHADOW_THROUGH_PANES, v.shadow_panes);
+        paths[si] = RtPath(v.shadow_contrib, p.slot, 0u, 0u, through, 0.0);
     }
     if v.next.tmax > 0.0 {
         let j = atomicAdd(&queues[batch.next_queue].count, 1u);
@@ -369,9 +396,12 @@ fn resolve(
         let si = batch.shadow_base + i;
         if rays[si].tmax > 0.0 {
             atomicAdd(&wg_shadow, 1u);
+            let rec = paths[si];
             if hits[si].tri == NONE {
-                let rec = paths[si];
                 add_radiance(rec.slot, rec.throughput);
+            } else if rec.depth == SHADOW_THROUGH_PANES {
+                // Blocked: by panes only? Their transmittance, traced here from the start.
+                add_radiance(rec.slot, rec.throughput * shadow_transmittance(rays[si], 1u));
             }
         }
     }
@@ -433,8 +463,12 @@ fn megakernel(
         let hit = trace(ray, false);
         let v = shade_vertex(&p, ray, hit);
         l += v.emitted;
-        if v.shadow.tmax > 0.0 && trace(v.shadow, true).tri == NONE {
-            l += v.shadow_contrib;
+        if v.shadow.tmax > 0.0 {
+            if trace(v.shadow, true).tri == NONE {
+                l += v.shadow_contrib;
+            } else if v.shadow_panes {
+                l += v.shadow_contrib * shadow_transmittance(v.shadow, 1u);
+            }
         }
         if v.next.tmax <= 0.0 {
             break;

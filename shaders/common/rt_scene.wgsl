@@ -20,6 +20,11 @@ struct RtSceneInfo {
     p_emitters: f32,
     // Where the per-triangle attributes (shading normals, vertex colours, TEXCOORD_1) start.
     attr_base: u32,
+    // 1 when a material is (in part) a thin glass pane (common/pane_trace.wgsl).
+    has_panes: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Group 1 bindings 0, 1 (nodes, triangles): see common/bvh.wgsl.
@@ -40,15 +45,26 @@ struct Material {
     // The texture coordinate set of the base-colour texture (bit 0) and of the emissive one
     // (bit 1): set 1 where the bit is set.
     texcoords: u32,
+    // The thin glass pane's weight (0: none) and index of refraction
+    // (vlf_core::pathtrace::SurfaceMaterial::w_pane, ior).
+    w_pane: f32,
+    ior: f32,
+    // What the final gather's openness probes see through: MAT_PANE, MAT_SEE_THROUGH.
+    openness: u32,
 }
 
+// Material openness flags (vlf_gpu::raytrace::scene::MAT_*; vlf_core::gather::Openness).
+const MAT_PANE: u32 = 1u;
+const MAT_SEE_THROUGH: u32 = 2u;
+
 fn material(index: u32) -> Material {
-    let o = scene_info.mat_base + 3u * index;
+    let o = scene_info.mat_base + 4u * index;
     let a = blob[o];
     let b = blob[o + 1u];
     let c = blob[o + 2u];
+    let d = blob[o + 3u];
     return Material(a.xyz, bitcast<u32>(a.w), b.xyz, bitcast<u32>(b.w), c.x, c.y, c.z,
-        bitcast<u32>(c.w));
+        bitcast<u32>(c.w), d.x, d.y, bitcast<u32>(d.z));
 }
 
 // Texture coordinates (TEXCOORD_0) of leaf-order triangle `tri` at barycentrics (b1, b2).

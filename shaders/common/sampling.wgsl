@@ -6,16 +6,23 @@ const PI: f32 = 3.14159265358979;
 const INV_PI: f32 = 0.318309886183791;
 const TAU: f32 = 6.28318530717959;
 
+// copysign(1, z): −1 where z's sign bit is set, −0.0 included (vlf_core's basis takes
+// `1.0f32.copysign(n.z)`; `z >= 0.0` would call −0.0 positive and turn the basis of a normal
+// such as (1, −0, −0), the back side of a face along −x, the other way round).
+fn basis_sign(z: f32) -> f32 {
+    return select(1.0, -1.0, (bitcast<u32>(z) & 0x80000000u) != 0u);
+}
+
 // An orthonormal basis (t, b, n) around the unit vector n (Duff et al. 2017): t and b.
 fn basis_t(n: vec3<f32>) -> vec3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let sign = basis_sign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     return vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
 }
 
 fn basis_b(n: vec3<f32>) -> vec3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let sign = basis_sign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     return vec3<f32>(b, sign + n.y * n.y * a, -n.y);

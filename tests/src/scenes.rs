@@ -126,24 +126,153 @@ pub fn pane_over_floor(pane: bool, height: f32) -> Scene {
     b.quad(square(0.0, 0.5), floor);
     b.quad(square(-0.01, 2.0), ground);
     if pane {
-        let glass = b.material(Material {
-            name: "glass".into(),
-            base_color: Vec3::ONE,
-            base_color_texture: None,
-            emission: Vec3::ZERO,
-            emissive_texture: None,
-            double_sided: true,
-            kind: MaterialKind::Diffuse,
-            metallic: 0.0,
-            roughness: 0.0,
-            transparency: Transparency {
-                transmission: 1.0,
-                ..Transparency::default()
-            },
-        });
+        let glass = glass(&mut b, "glass", Vec3::ONE, None);
         b.quad(square(height, 2.0), glass);
     }
     b.build("pane over floor")
+}
+
+/// A thin glass pane material named `name`: transmission 1, roughness 0, IOR 1.5, base colour
+/// `tint` (times `texture`, read at `TEXCOORD_0`, when given).
+pub fn glass(b: &mut SceneBuilder, name: &str, tint: Vec3, texture: Option<u32>) -> u32 {
+    b.material(Material {
+        name: name.into(),
+        base_color: tint,
+        base_color_texture: texture.map(|index| TexRef { index, texcoord: 0 }),
+        emission: Vec3::ZERO,
+        emissive_texture: None,
+        double_sided: true,
+        kind: MaterialKind::Diffuse,
+        metallic: 0.0,
+        roughness: 0.0,
+        transparency: Transparency {
+            transmission: 1.0,
+            ..Transparency::default()
+        },
+    })
+}
+
+/// A small glazed room: a grey 2 × 1 × 2 room (walls facing in) whose +x wall has a 1 × 0.5
+/// window glazed twice, a tinted pane in the wall's plane and, 4 cm outside it, a pane whose
+/// tint is a 2 × 1 texture (two colours, linear); outside, a ground and an emitter facing the
+/// window; inside, a grey block under the window. With `paper_box`, a closed box of thin
+/// diffuse transmission (paper) stands on the floor: its inside is lit through its walls, so
+/// the final gather's openness probes must see through them. [`glazed_room_lights`] adds a sun
+/// and a point light outside.
+// (vlf-core's tests include this file too; the GPU suite alone uses the glazed room.)
+#[allow(dead_code)]
+pub fn glazed_room(paper_box: bool) -> Scene {
+    let mut b = SceneBuilder::new();
+    let grey = b.diffuse("wall", Vec3::splat(0.6), Vec3::ZERO);
+    let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::new(4.0, 3.5, 3.0));
+    let inner = glass(&mut b, "inner pane", Vec3::new(0.9, 0.85, 0.7), None);
+    let tex = b.texture(Texture {
+        name: Some("tint".into()),
+        width: 2,
+        height: 1,
+        pixels: vec![Vec4::new(1.0, 0.9, 0.8, 1.0), Vec4::new(0.7, 0.9, 1.0, 1.0)],
+        has_alpha: false,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        filter: FilterMode::Linear,
+        gltf_texture: 0,
+    });
+    let outer = glass(&mut b, "outer pane", Vec3::ONE, Some(tex));
+    let v = Vec3::new;
+    // The room, the +x wall left out.
+    let (lo, hi) = (v(-1.0, 0.0, -1.0), v(1.0, 1.0, 1.0));
+    let p = |x: usize, y: usize, z: usize| v([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
+    for q in [
+        [p(0, 1, 0), p(0, 1, 1), p(0, 0, 1), p(0, 0, 0)], // −x
+        [p(0, 0, 1), p(1, 0, 1), p(1, 0, 0), p(0, 0, 0)], // floor
+        [p(1, 1, 0), p(1, 1, 1), p(0, 1, 1), p(0, 1, 0)], // ceiling
+        [p(1, 0, 0), p(1, 1, 0), p(0, 1, 0), p(0, 0, 0)], // −z
+        [p(0, 1, 1), p(1, 1, 1), p(1, 0, 1), p(0, 0, 1)], // +z
+    ] {
+        b.quad(q, grey);
+    }
+    // The +x wall (facing −x) around the window y in [0.3, 0.8], z in [−0.5, 0.5].
+    let wall = |y0: f32, y1: f32, z0: f32, z1: f32| {
+        [
+            v(1.0, y0, z0),
+            v(1.0, y0, z1),
+            v(1.0, y1, z1),
+            v(1.0, y1, z0),
+        ]
+    };
+    for q in [
+        wall(0.0, 0.3, -1.0, 1.0),
+        wall(0.8, 1.0, -1.0, 1.0),
+        wall(0.3, 0.8, -1.0, -0.5),
+        wall(0.3, 0.8, 0.5, 1.0),
+    ] {
+        b.quad(q, grey);
+    }
+    b.quad(wall(0.3, 0.8, -0.5, 0.5), inner);
+    let o = |y: f32, z: f32| v(1.04, y, z);
+    b.uv_quad(
+        [o(0.3, -0.5), o(0.3, 0.5), o(0.8, 0.5), o(0.8, -0.5)],
+        [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ],
+        outer,
+    );
+    // Outside: the ground and a lamp facing the window.
+    let ground = b.diffuse("ground", Vec3::splat(0.5), Vec3::ZERO);
+    b.quad(
+        [
+            v(1.0, 0.0, -1.5),
+            v(1.0, 0.0, 1.5),
+            v(3.0, 0.0, 1.5),
+            v(3.0, 0.0, -1.5),
+        ],
+        ground,
+    );
+    b.quad(
+        [
+            v(2.5, 0.4, -0.3),
+            v(2.5, 0.4, 0.3),
+            v(2.5, 0.8, 0.3),
+            v(2.5, 0.8, -0.3),
+        ],
+        lamp,
+    );
+    // A block under the window inside.
+    b.aabox(v(0.3, 0.0, -0.4), v(0.7, 0.25, 0.1), false, grey);
+    if paper_box {
+        let paper = b.diffuse("paper", Vec3::new(0.9, 0.85, 0.8), Vec3::ZERO);
+        b.translucent(
+            paper,
+            vlf_core::scene::Translucency::ThinDiffuseTransmission {
+                factor: 0.5,
+                color: Vec3::new(1.0, 0.9, 0.7),
+            },
+        );
+        b.aabox(v(-0.7, 0.0, 0.2), v(-0.3, 0.4, 0.6), false, paper);
+    }
+    b.build("glazed room")
+}
+
+/// The lights of [`glazed_room`]: a sun shining in through the window (26° above the horizon) and
+/// a point light outside it.
+#[allow(dead_code)]
+pub fn glazed_room_lights(scene: &mut Scene) {
+    scene.suns.push(vlf_core::scene::Sun {
+        name: None,
+        direction: Vec3::new(-1.0, -0.5, 0.15).normalize(),
+        irradiance: Vec3::new(3.0, 2.8, 2.5),
+    });
+    scene.lights.push(vlf_core::scene::PunctualLight {
+        name: None,
+        kind: vlf_core::scene::PunctualKind::Point,
+        position: Vec3::new(1.8, 0.7, -0.2),
+        direction: Vec3::NEG_Z,
+        intensity: Vec3::new(1.0, 0.9, 0.8),
+        range: None,
+    });
 }
 
 /// The irradiance at the centre of `pane_over_floor(true, height)`'s receiver under a sky of

@@ -201,6 +201,18 @@ pub struct MemoryReport {
     pub plan: memory::MemoryPlan,
 }
 
+/// The final gather's parameters when a bake on a GPU device gathers there (`vlf_gpu::gather`):
+/// it samples fixed counts only, so guided or adaptive sampling and the denoiser gather on the
+/// CPU, and so do translucent scenes, which propagate on the CPU.
+fn gpu_gather(
+    scene: &vlf_core::scene::Scene,
+    params: &BakeParams,
+) -> Option<vlf_core::lightfield::GatherParams> {
+    params
+        .final_gather
+        .filter(|g| g.sampling.is_fixed() && !g.denoise && !scene.has_translucency())
+}
+
 /// The final gather (on the GPU with a device: `vlf_gpu::gather`, tested against the CPU
 /// gather; on the CPU otherwise), then the mirror tiles' resampling and the light field
 /// (`vlf_core::pipeline`).
@@ -216,16 +228,11 @@ fn finish(
     threads: usize,
 ) -> anyhow::Result<vlf_core::pipeline::Finished> {
     use vlf_core::pipeline;
-    // The GPU gather samples fixed counts only and has neither panes nor the see-through rule
-    // of thin translucent walls yet: guided or adaptive sampling, the denoiser, glazed and
-    // translucent scenes gather on the CPU.
-    let gpu_gather = params.final_gather.filter(|g| {
-        g.sampling.is_fixed() && !g.denoise && !scene.has_panes() && !scene.has_translucency()
-    });
+    let gpu_gather = gpu_gather(scene, params);
     if let (Compute::Gpu(..), Some(_), None) = (compute, params.final_gather, gpu_gather) {
         log::info!(
             "final gather on the CPU: the GPU gather has no guided or adaptive sampling, \
-             denoiser, glass panes or translucent walls"
+             denoiser or translucent walls"
         );
     }
     let (Compute::Gpu(ctx, _), Some(gp)) = (compute, gpu_gather) else {
@@ -428,7 +435,10 @@ pub fn bake_scene(
         },
         resample: finished.resample,
         gather: finished.gather.map(|stats| GatherReport {
-            device: compute.kind(),
+            device: match compute {
+                Compute::Gpu(..) if gpu_gather(&scene, params).is_some() => "gpu",
+                _ => "cpu",
+            },
             relative_difference: stats.relative_difference(),
             stats,
         }),

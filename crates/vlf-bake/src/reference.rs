@@ -99,19 +99,13 @@ pub fn reference_command(
             (camera, format!("camera {index}"))
         }
     };
-    let mut tracer = if scene.has_translucency() {
+    let tracer = if scene.has_translucency() {
         // The GPU path tracer has no random walk or diffuse transmission yet
         // (docs/SUBSURFACE.md): scenes with translucent materials are traced on the CPU.
         Compute::Cpu("translucent materials: the GPU path tracer has no random walk yet".into())
     } else {
         crate::open_device(device)?
     };
-    if matches!(tracer, Compute::Gpu(..)) && scene.has_panes() {
-        // Not ported yet (docs/TRANSMISSION.md, "What is not on the GPU").
-        let why = "the GPU path tracer has no thin glass panes yet";
-        log::warn!("{why}: path tracing on the CPU");
-        tracer = Compute::Cpu(why.into());
-    }
     let prep = PreparedScene::new(&scene);
     let total = u64::from(width) * u64::from(height) * u64::from(args.spp);
     let show = !quiet && !args.json;

@@ -418,9 +418,10 @@ fn gpu_batch_creates_the_bake_pipelines_once() {
     let _ = fs::remove_dir_all(&d);
 }
 
-/// `--device gpu` runs the final gather on the GPU (`vlf_gpu::gather`, at the default 256
-/// indirect rays per texel: no CPU fallback), plans its buffers with the bake's, and `--json`
-/// says where it ran.
+/// `--device gpu` with fixed-count sampling runs the final gather on the GPU
+/// (`vlf_gpu::gather`, at the default 256 indirect rays per texel: no CPU fallback), plans its
+/// buffers with the bake's, and `--json` says where it ran; the default's guided sampling
+/// gathers on the CPU, and `--json` says so.
 #[test]
 fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
     if vlf_tests::gpu().is_none() {
@@ -432,6 +433,15 @@ fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
     let mut args = vec!["bake", s(&scene), "-o", s(&out), "--json"];
     args.extend(&TINY[2..]);
     args.extend(["--device", "gpu"]);
+    let o = run(&args);
+    assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["device"], "gpu");
+    assert_eq!(
+        r["gather"]["device"], "cpu",
+        "guided sampling gathers on the CPU"
+    );
+    args.extend(["--gather-sampling", "fixed", "--denoise", "off"]);
     let o = run(&args);
     assert_eq!(code(&o), 0, "{}", text(&o.stderr));
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();

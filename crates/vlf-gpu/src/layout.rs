@@ -200,6 +200,12 @@ pub struct RtSceneInfo {
     pub p_emitters: f32,
     /// Where the per-triangle attributes (shading normals, vertex colours, `TEXCOORD_1`) start.
     pub attr_base: u32,
+    /// 1 when a material is (in part) a thin glass pane: rays then go on through panes
+    /// (`shaders/common/pane_trace.wgsl`); 0 keeps the plain traversals.
+    pub has_panes: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// The icosahedron tables of the direction lookup (`shaders/common/directions.wgsl`, group 2
@@ -427,7 +433,7 @@ pub fn registry() -> Vec<SharedStruct> {
         }),
         shared!(RtSceneInfo in "common/rt_scene.wgsl" {
             mat_base, emitter_base, emitter_count, delta_base, delta_count, tex_base, p_emitters,
-            attr_base,
+            attr_base, has_panes, _pad0, _pad1, _pad2,
         }),
         shared!(DirTables in "common/directions.wgsl" {
             face_normals, edge0, edge1, edge2, octant_faces, k, l, _pad0, _pad1,

@@ -77,6 +77,8 @@ pub static COMMON_TEXTURE: Shader = shader!("common/texture.wgsl");
 pub static COMMON_ALPHA_MASK: Shader = shader!("common/alpha_mask.wgsl");
 /// Thin glass panes: the thin dielectric's reflectance and a face's transmittance.
 pub static COMMON_PANE: Shader = shader!("common/pane.wgsl");
+/// Rays of the final gather and the path tracer that go on through thin glass panes.
+pub static COMMON_PANE_TRACE: Shader = shader!("common/pane_trace.wgsl");
 /// Per-path random streams (`Rng`).
 pub static COMMON_RANDOM: Shader = shader!("common/random.wgsl");
 /// Sampling routines (cosine hemisphere, bases, barycentrics, MIS weights).
@@ -123,6 +125,7 @@ pub static ALL: &[&Shader] = &[
     &COMMON_TEXTURE,
     &COMMON_ALPHA_MASK,
     &COMMON_PANE,
+    &COMMON_PANE_TRACE,
     &COMMON_RANDOM,
     &COMMON_SAMPLING,
     &COMMON_RT_SCENE,

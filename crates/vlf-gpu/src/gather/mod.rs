@@ -29,6 +29,13 @@
 //! direction tables (0, 1), mirror tiles (3–5), the propagation's faces, dilated irradiance and
 //! contact bits (6, one buffer). Eight storage buffers in all, the device's minimum per stage.
 //!
+//! **Panes.** Rays go on through thin glass panes as the CPU gather's do
+//! (`vlf_core::gather::through`, ported in `shaders/common/pane_trace.wgsl`): cosine rays and
+//! shadow rays (light samples, suns, point and spot lights) attenuated by the panes they cross,
+//! indirect rays reading each pane's tiles and diffuse part on their way, openness probes
+//! passing panes and surfaces of thin diffuse transmission (the materials' openness flags of
+//! [`crate::raytrace::scene`]). Scenes without panes trace as before (one query per ray).
+//!
 //! **Contacts.** A gather ray's read of the field stops at contacts as the CPU's does
 //! (`vlf_core::gather::field::Field::irradiance_at`): the per-texel contact bits are computed
 //! on the CPU ([`Contacts`], once per field) and uploaded; `shaders/common/gather_field.wgsl`

@@ -16,7 +16,7 @@ use vlf_core::pathtrace::{BvhNode, PreparedScene, RtTriangle};
 
 use super::{Estimator, GatherOptions, GpuGatherError, chunk_texels, steps};
 use crate::layout::{DirTables, GatherGlobals, RtSceneInfo};
-use crate::raytrace::scene::{ATTRIBUTE_ENTRIES, attributed_triangles};
+use crate::raytrace::scene::{ATTRIBUTE_ENTRIES, MATERIAL_ENTRIES, attributed_triangles};
 use crate::render::upload::{ATLAS_WIDTH, TILE_HEADER_WORDS, wrapped_extent};
 
 /// What a gather's buffers depend on.
@@ -168,7 +168,7 @@ impl GatherPlan {
         // BakeFace records as vec4 entries, as the field and grid buffers hold them.
         let face_entries = (size_of::<BakeFace>() / 16) as u64 * c.faces;
         let blob = 2 * c.triangles
-            + 3 * c.materials
+            + u64::from(MATERIAL_ENTRIES) * c.materials
             + c.emitters
             + 4 * c.delta_lights
             + c.textures

@@ -189,4 +189,25 @@ mod tests {
             Some(Literal::U32(vlf_core::pathtrace::NONE))
         );
     }
+
+    /// Rays pass as many panes on the GPU as `vlf_core::gather::through` lets them, and the
+    /// materials' openness flags are the packer's.
+    #[test]
+    fn pane_constants_match_vlf_core() {
+        let module = shaders::COMMON_PANE_TRACE.validate().unwrap();
+        assert_eq!(
+            constant(&module, "MAX_PANES"),
+            Some(Literal::U32(vlf_core::gather::through::MAX_PANES)),
+            "common/pane_trace.wgsl: MAX_PANES must equal vlf_core's"
+        );
+        let module = shaders::COMMON_RT_SCENE.validate().unwrap();
+        assert_eq!(
+            constant(&module, "MAT_PANE"),
+            Some(Literal::U32(super::scene::MAT_PANE))
+        );
+        assert_eq!(
+            constant(&module, "MAT_SEE_THROUGH"),
+            Some(Literal::U32(super::scene::MAT_SEE_THROUGH))
+        );
+    }
 }

@@ -10,6 +10,13 @@
 //! every few bounces and starts the next wave when it is empty. Path `(pixel, sample)` uses the
 //! random stream of `vlf_core::pathtrace::Rng::for_path`, exactly like the CPU tracer.
 //!
+//! Thin glass panes are the CPU tracer's delta lobe (reflect with R(θ), pass with T(θ), tinted),
+//! and a shadow ray towards a delta light that meets something is traced again through the
+//! panes (`resolve`, or inline in the megakernel: `shaders/common/pane_trace.wgsl`,
+//! `PreparedScene::shadow_transmittance`); an emitter's shadow ray stops at a pane, as on the
+//! CPU. Translucent materials (the CPU tracer's `walk`) are not on the GPU: `vlf-bake reference`
+//! traces such scenes on the CPU.
+//!
 //! Bind groups of the path kernels: 0 = [`RtGlobals`] + [`RtBatch`] (dynamic offset), 1 = scene
 //! (nodes, triangles, blob, [`RtSceneInfo`]: `shaders/common/rt_scene.wgsl`), 2 = wave buffers
 //! (rays, hits, paths, queues, accumulators), 3 = control (queues, indirect arguments, finished

@@ -5,7 +5,7 @@
 //! | section | entries (vec4 each) |
 //! |---|---|
 //! | shading, at 0 | per triangle: `[uv0, uv1]`, `[uv2, face, attributes]` (corner `TEXCOORD_0`s; `attributes`: the triangle's entry in the attribute section, [`NONE`] without one) |
-//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, texcoords]` (`texcoords`: bit 0 the base-colour texture reads `TEXCOORD_1`, bit 1 the emissive one) |
+//! | materials, at `mat_base` | per material: `[base rgb, base texture]`, `[emission rgb, emissive texture]`, `[w_diffuse, α, bake diffuse weight, texcoords]`, `[w_pane, ior, openness, 0]` (`texcoords`: bit 0 the base-colour texture reads `TEXCOORD_1`, bit 1 the emissive one; `openness`: [`MAT_PANE`], [`MAT_SEE_THROUGH`], what the final gather's openness probes pass) |
 //! | attributes, at `attr_base` | per triangle with shading normals, vertex colours or `TEXCOORD_1` ([`ATTRIBUTE_ENTRIES`] each): `[n0, flags]`, `[n1, 0]`, `[n2, 0]`, `[c0, 0]`, `[c1, 0]`, `[c2, 0]`, `[t0, t1]`, `[t2, 0, 0]` (flags: [`ATTR_SMOOTH`], [`ATTR_COLORS`]; the normals are unit, the colours white without vertex colours, the t the corner `TEXCOORD_1`s, 0 without) |
 //! | emitters, at `emitter_base` | per emitter: `[triangle, area, pdf, cdf]` |
 //! | delta lights, at `delta_base` | per light (suns, then point and spot lights, `vlf_core::pathtrace::lights::DeltaLight`): `[position (sun: direction towards it) xyz, kind]`, `[intensity (sun: irradiance) rgb, pdf]`, `[spot axis xyz, cdf]`, `[cone scale, cone offset, 1/range, 0]` |
@@ -23,6 +23,13 @@ use vlf_core::pathtrace::{NONE, PreparedScene};
 
 /// Entries (vec4) per triangle of the attribute section.
 pub const ATTRIBUTE_ENTRIES: u32 = 8;
+/// Entries (vec4) per material.
+pub const MATERIAL_ENTRIES: u32 = 4;
+/// Material openness flags (`vlf_core::gather::Openness`): a thin glass pane
+/// (`Material::pane_weight` > 0), and a surface light crosses (thin diffuse transmission), neither
+/// of which closes a solid for the final gather's openness probes.
+pub const MAT_PANE: u32 = 1;
+pub const MAT_SEE_THROUGH: u32 = 2;
 /// Attribute flags: the triangle has shading normals; it has vertex colours.
 pub const ATTR_SMOOTH: u32 = 1;
 pub const ATTR_COLORS: u32 = 2;
@@ -41,6 +48,8 @@ pub struct PackedScene {
     pub p_emitters: f32,
     /// Where the attribute section starts.
     pub attr_base: u32,
+    /// Whether a material is (in part) a thin glass pane.
+    pub has_panes: bool,
 }
 
 fn bits(x: u32) -> f32 {
@@ -59,8 +68,25 @@ impl PackedScene {
             tex_base: self.tex_base,
             p_emitters: self.p_emitters,
             attr_base: self.attr_base,
+            has_panes: u32::from(self.has_panes),
+            ..Default::default()
         }
     }
+}
+
+/// The openness flags of material `m` of `scene`, as `vlf_core::gather::Grid::points` builds
+/// its `Openness`.
+fn openness(scene: &vlf_core::scene::Scene, m: u32) -> u32 {
+    let pane = scene
+        .materials
+        .get(m as usize)
+        .is_some_and(|m| m.pane_weight() > 0.0);
+    let see_through = matches!(
+        scene.translucency_of(m),
+        vlf_core::scene::Translucency::ThinDiffuseTransmission { .. }
+    );
+    let pane = if pane { MAT_PANE } else { 0 };
+    pane | if see_through { MAT_SEE_THROUGH } else { 0 }
 }
 
 /// Which triangles of `prep` (in leaf order) get an entry in the attribute section: those
@@ -116,13 +142,14 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
     }
     let mat_base = blob.len() as u32;
     let baked = vlf_core::bake::glossy::baked_materials(&prep.scene.materials, None);
-    for (m, bm) in prep.materials.iter().zip(&baked) {
+    for (i, (m, bm)) in prep.materials.iter().zip(&baked).enumerate() {
         let b = m.base_color;
         let e = m.emission;
         let sets = m.base_texcoord.min(1) | (m.emissive_texcoord.min(1) << 1);
         blob.push([b.x, b.y, b.z, bits(m.base_texture.unwrap_or(NONE))]);
         blob.push([e.x, e.y, e.z, bits(m.emissive_texture.unwrap_or(NONE))]);
         blob.push([m.w_diffuse, m.alpha, bm.diffuse_weight, bits(sets)]);
+        blob.push([m.w_pane, m.ior, bits(openness(prep.scene, i as u32)), 0.0]);
     }
     let emitter_base = blob.len() as u32;
     for e in &prep.lights.emitters {
@@ -173,6 +200,9 @@ pub fn pack(prep: &PreparedScene) -> PackedScene {
         tex_base,
         p_emitters: prep.lights.p_emitters,
         attr_base,
+        // Either side's notion of a pane: the shaders' shortcuts without panes give the same
+        // answers as their loops, so a wider flag only costs time.
+        has_panes: prep.has_panes() || prep.scene.has_panes(),
     }
 }
 
@@ -212,7 +242,7 @@ mod tests {
         let prep = PreparedScene::new(&scene);
         let p = pack(&prep);
         assert_eq!(p.mat_base as usize, 2 * prep.bvh.triangles.len());
-        assert_eq!(p.emitter_base, p.mat_base + 3 * 2);
+        assert_eq!(p.emitter_base, p.mat_base + MATERIAL_ENTRIES * 2);
         assert_eq!(p.emitter_count, 2);
         assert_eq!(p.delta_base, p.emitter_base + 2);
         assert_eq!(p.tex_base, p.delta_base);
@@ -230,7 +260,11 @@ mod tests {
             let face = scene.triangles[t.prim as usize].face;
             assert_eq!(p.blob[2 * i + 1][2].to_bits(), face);
         }
-        assert_eq!(p.blob[p.mat_base as usize + 3 * wall as usize + 2][2], 1.0);
+        assert_eq!(
+            p.blob[(p.mat_base + MATERIAL_ENTRIES * wall) as usize + 2][2],
+            1.0
+        );
+        assert!(!p.has_panes && p.info().has_panes == 0);
         assert_eq!(p.info().emitter_count, 2);
     }
 }

@@ -61,6 +61,8 @@ fn every_registered_shader_resolves_and_validates() {
             "common/random.wgsl",
             "common/hash.wgsl",
             "common/sampling.wgsl",
+            "common/pane_trace.wgsl",
+            "common/pane.wgsl",
         ]
     );
 }
