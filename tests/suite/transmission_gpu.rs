@@ -174,7 +174,7 @@ fn gpu_final_gather_passes_half_the_light() {
         direct_rays: 16,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let p = BakeParams {
         iterations: Iterations::Fixed(1),

@@ -26,6 +26,7 @@ pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = quality(a).preset().params(final_gather(a));
     apply_explicit(a, &mut p);
     p.validate().context("bake parameters")?;
+    p.check_available().context("bake parameters")?;
     Ok(p)
 }
 
@@ -53,6 +54,7 @@ pub fn resolve_params(
         reasons.push(msg);
     }
     p.validate().context("bake parameters")?;
+    p.check_available().context("bake parameters")?;
     Ok((p, reasons))
 }
 
@@ -126,7 +128,7 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
             g.sampling.max_rounds = v;
         }
         if let Some(v) = a.denoise {
-            g.denoise = v == OnOff::On;
+            g.denoise = v.into();
         }
     }
 }
@@ -220,7 +222,10 @@ fn finish(
     // of thin translucent walls yet: guided or adaptive sampling, the denoiser, glazed and
     // translucent scenes gather on the CPU.
     let gpu_gather = params.final_gather.filter(|g| {
-        g.sampling.is_fixed() && !g.denoise && !scene.has_panes() && !scene.has_translucency()
+        g.sampling.is_fixed()
+            && !g.denoise.is_on()
+            && !scene.has_panes()
+            && !scene.has_translucency()
     });
     if let (Compute::Gpu(..), Some(_), None) = (compute, params.final_gather, gpu_gather) {
         log::info!(

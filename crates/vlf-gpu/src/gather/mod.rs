@@ -395,7 +395,7 @@ pub fn final_gather_with(
     gp: &GatherParams,
     options: &GatherOptions,
 ) -> Result<Gathered, GpuGatherError> {
-    if !gp.sampling.is_fixed() || gp.denoise {
+    if !gp.sampling.is_fixed() || gp.denoise.is_on() {
         return Err(GpuGatherError::Unsupported);
     }
     let grids = Grids::new(scene, field, gp)?;
