@@ -77,7 +77,7 @@ pub(crate) fn gp() -> GatherParams {
         direct_rays: 9,
         indirect_rays: 16,
         sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     }
 }
 
@@ -100,7 +100,7 @@ fn default_counts(scene: &Scene) -> GatherParams {
     // The GPU gather implements the fixed-count estimator (guided and adaptive sampling and
     // the denoiser run on the CPU).
     gp.sampling = vlf_core::lightfield::Sampling::FIXED;
-    gp.denoise = false;
+    gp.denoise = vlf_core::lightfield::Denoiser::Off;
     gp
 }
 

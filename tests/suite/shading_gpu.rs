@@ -172,7 +172,7 @@ fn gpu_gather_matches_cpu_with_shading_normals_colours_and_uv1() {
         direct_rays: 9,
         indirect_rays: 16,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let cpu = final_gather(&scene, &field, &gp, 0).unwrap();
     let pipelines = GatherPipelines::of(ctx);
@@ -389,7 +389,7 @@ fn colours_and_second_uv_set_render_analytically_under_a_sky() {
             direct_rays: 4,
             indirect_rays: 4,
             sampling: Sampling::FIXED,
-            denoise: false,
+            denoise: vlf_core::lightfield::Denoiser::Off,
         }),
         ..small_params(sky)
     };

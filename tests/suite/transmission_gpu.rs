@@ -175,7 +175,7 @@ fn gpu_final_gather_passes_half_the_light() {
         direct_rays: 16,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let p = BakeParams {
         iterations: Iterations::Fixed(1),
@@ -354,7 +354,7 @@ fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
         direct_rays: 256,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let pipelines = GatherPipelines::of(ctx);
     let gathered = |scene: &vlf_core::scene::Scene, sky: Vec3| {

@@ -26,6 +26,7 @@ pub fn params_from_args(a: &BakeArgs) -> anyhow::Result<BakeParams> {
     let mut p = quality(a).preset().params(final_gather(a));
     apply_explicit(a, &mut p);
     p.validate().context("bake parameters")?;
+    p.check_available().context("bake parameters")?;
     Ok(p)
 }
 
@@ -53,6 +54,7 @@ pub fn resolve_params(
         reasons.push(msg);
     }
     p.validate().context("bake parameters")?;
+    p.check_available().context("bake parameters")?;
     Ok((p, reasons))
 }
 
@@ -126,7 +128,7 @@ fn apply_explicit(a: &BakeArgs, p: &mut BakeParams) {
             g.sampling.max_rounds = v;
         }
         if let Some(v) = a.denoise {
-            g.denoise = v == OnOff::On;
+            g.denoise = v.into();
         }
     }
 }
@@ -210,7 +212,7 @@ fn gpu_gather(
 ) -> Option<vlf_core::lightfield::GatherParams> {
     params
         .final_gather
-        .filter(|g| g.sampling.is_fixed() && !g.denoise && !scene.has_translucency())
+        .filter(|g| g.sampling.is_fixed() && !g.denoise.is_on() && !scene.has_translucency())
 }
 
 /// The final gather (on the GPU with a device: `vlf_gpu::gather`, tested against the CPU

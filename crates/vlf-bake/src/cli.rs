@@ -77,6 +77,24 @@ pub enum OnOff {
     Off,
 }
 
+/// `--denoise on|off|oidn`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DenoiseArg {
+    On,
+    Off,
+    Oidn,
+}
+
+impl From<DenoiseArg> for vlf_core::lightfield::Denoiser {
+    fn from(d: DenoiseArg) -> Self {
+        match d {
+            DenoiseArg::On => Self::Edge,
+            DenoiseArg::Off => Self::Off,
+            DenoiseArg::Oidn => Self::Oidn,
+        }
+    }
+}
+
 /// `--iterations K` or `--iterations auto` (until the unshot power is below the threshold).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum IterationsArg {
@@ -175,10 +193,11 @@ pub struct BakeArgs {
     /// docs/QUALITY.md).
     #[arg(long, value_name = "N")]
     pub gather_max_rounds: Option<u32>,
-    /// The edge-aware atlas denoiser after the final gather (docs/GATHER.md); the file records
-    /// whether it ran.
+    /// The atlas denoiser after the final gather (docs/GATHER.md): `on` vlf's edge-aware
+    /// filter, `off` none, `oidn` Intel Open Image Denoise's lightmap filter (only in builds
+    /// with the `oidn` feature). The file records which ran.
     #[arg(long, value_enum)]
-    pub denoise: Option<OnOff>,
+    pub denoise: Option<DenoiseArg>,
     /// Constant sky radiance `R,G,B` entering every ray from outside the scene.
     #[arg(long)]
     pub sky: Option<Rgb>,

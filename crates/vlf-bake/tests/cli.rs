@@ -123,6 +123,37 @@ fn bake_writes_a_file_that_info_describes() {
     let _ = fs::remove_dir_all(&d);
 }
 
+/// `--denoise oidn` needs a build with the `oidn` feature (docs/GATHER.md, "OIDN's lightmap
+/// filter"): without it the bake is refused before it starts, naming the feature (bad input,
+/// exit 3); with it the file records the denoiser that ran.
+#[test]
+fn denoise_oidn_needs_a_build_with_oidn_and_is_recorded() {
+    let d = scratch("oidn");
+    let out = d.join("box.vlf");
+    let scene = box_scene();
+    let mut args = vec!["bake", s(&scene), "-o", s(&out), "--denoise", "oidn"];
+    args.extend(TINY);
+    let o = run(&args);
+    if cfg!(feature = "oidn") {
+        assert_eq!(code(&o), 0, "{}", text(&o.stderr));
+        let o = run(&["info", s(&out), "--json"]);
+        let info: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(info["params"]["final_gather"]["denoise"], "oidn");
+        let o = run(&["info", s(&out)]);
+        assert!(text(&o.stdout).contains("atlas denoiser OIDN RTLightmap"));
+    } else {
+        assert_eq!(code(&o), 3, "{}", text(&o.stderr));
+        let err = text(&o.stderr);
+        assert!(
+            err.contains("denoise = oidn: this build has no Intel Open Image Denoise")
+                && err.contains("--features oidn"),
+            "{err}"
+        );
+        assert!(!out.exists(), "nothing written");
+    }
+    let _ = fs::remove_dir_all(&d);
+}
+
 #[test]
 fn bake_json_includes_the_memory_plan() {
     let d = scratch("bake-json");

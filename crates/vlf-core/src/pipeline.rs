@@ -6,7 +6,7 @@ use crate::bake::reference::{self, Propagated};
 use crate::bake::subsurface::{LinkParams, Subsurface};
 use crate::bake::{BakeError, BakeScene, try_assemble};
 use crate::directions::DirectionSet;
-use crate::gather::{Converged, GatherStats, Gathered, final_gather};
+use crate::gather::{Converged, GatherError, GatherStats, Gathered, final_gather};
 use crate::lightfield::{BakeParams, BakeStats, LightField};
 use crate::resample::{ResampleStats, resample_tiles};
 use crate::scene::Scene;
@@ -44,7 +44,11 @@ pub fn finish(
         &converged(prep, params, &directions, &propagated),
         &gp,
         threads,
-    )?;
+    )
+    .map_err(|e| match e {
+        GatherError::Params(e) => BakeError::Params(e),
+        GatherError::Oidn(e) => BakeError::Denoiser(e.to_string()),
+    })?;
     finish_gathered(
         scene, prep, params, directions, propagated, stats, threads, g,
     )

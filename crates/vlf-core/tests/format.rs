@@ -196,7 +196,7 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
             direct_rays: 16,
             indirect_rays: 256,
             sampling: vlf_core::lightfield::Sampling::FIXED,
-            denoise: false,
+            denoise: vlf_core::lightfield::Denoiser::Off,
         }),
         ..BakeParams::paper()
     };
@@ -420,31 +420,58 @@ fn round_trip_is_bit_exact_for_both_encodings() {
 
 #[test]
 fn the_gathers_sampling_and_denoiser_round_trip_in_an_optional_section() {
+    use vlf_core::lightfield::Denoiser;
     let dir = scratch("gather-sampling");
-    let mut lf = small();
-    let g = lf.params.final_gather.as_mut().unwrap();
-    g.sampling = vlf_core::lightfield::Sampling {
-        guided: true,
-        target_error: 0.05,
-        max_rounds: 8,
-    };
-    g.denoise = true;
-    let path = dir.join("sampled.vlf");
-    format::write_atomic(&path, &lf).unwrap();
-    let back = format::read(&path).unwrap();
-    assert_eq!(back.params, lf.params);
-    // `describe` (what `vlf-bake batch` reads to decide whether an output is up to date) sees
-    // the same parameters: it read the header's alone, so every default bake looked baked
-    // with other parameters and was baked again.
-    assert_eq!(format::describe(&path).unwrap().params, lf.params);
-    let file = fs::read(&path).unwrap();
-    let h = header_of(&file);
-    let s = h
-        .sections
-        .iter()
-        .find(|s| s.name == "gather_sampling")
-        .expect("the section is written");
-    assert!(!s.required, "older readers skip it");
+    for denoise in [Denoiser::Edge, Denoiser::Oidn] {
+        let mut lf = small();
+        let g = lf.params.final_gather.as_mut().unwrap();
+        g.sampling = vlf_core::lightfield::Sampling {
+            guided: true,
+            target_error: 0.05,
+            max_rounds: 8,
+        };
+        g.denoise = denoise;
+        let path = dir.join("sampled.vlf");
+        format::write_atomic(&path, &lf).unwrap();
+        let back = format::read(&path).unwrap();
+        assert_eq!(back.params, lf.params);
+        // `describe` (what `vlf-bake batch` reads to decide whether an output is up to date)
+        // sees the same parameters: it read the header's alone, so every default bake looked
+        // baked with other parameters and was baked again.
+        assert_eq!(format::describe(&path).unwrap().params, lf.params);
+        let file = fs::read(&path).unwrap();
+        let h = header_of(&file);
+        let s = h
+            .sections
+            .iter()
+            .find(|s| s.name == "gather_sampling")
+            .expect("the section is written");
+        assert!(!s.required, "older readers skip it");
+        // The denoiser's word (the record's last u32): vlf's filter is 1, as when the record
+        // was a bool, so files from before OIDN read as they did; OIDN is 2.
+        let word = |f: &[u8]| {
+            let at = (s.offset + s.byte_len) as usize - 4;
+            u32::from_le_bytes(f[at..at + 4].try_into().unwrap())
+        };
+        let expected = if denoise == Denoiser::Edge { 1 } else { 2 };
+        assert_eq!(word(&file), expected);
+        if denoise == Denoiser::Edge {
+            // An older file that says "off" in the record (guided sampling, no filter).
+            let off = patch_section(&file, "gather_sampling", |b| {
+                let n = b.len();
+                b[n - 4..].copy_from_slice(&0u32.to_le_bytes());
+            });
+            let back = format::read_bytes(&off, &path).unwrap();
+            assert_eq!(back.params.final_gather.unwrap().denoise, Denoiser::Off);
+            // A denoiser this build does not know: an error naming the value and the file.
+            let bad = patch_section(&file, "gather_sampling", |b| {
+                let n = b.len();
+                b[n - 4..].copy_from_slice(&7u32.to_le_bytes());
+            });
+            let msg = read_err(&bad);
+            assert!(msg.contains("unknown denoiser 7"), "{msg}");
+        }
+    }
     // A fixed-count gather writes no such section: its files are as before.
     let plain = small();
     let h = header_of(&bytes_of(&plain, DEFAULT_ENCODING));
@@ -578,7 +605,7 @@ fn describe_reads_the_header_only() {
         "d.vlf",
         "version 3",
         "irradiance in rgb16f; 3 materials, 2 textures (19 texels, f16 RGB)",
-        "final gather  texel scale 0.5, indirect texel scale 2; 64 light samples, 16 direct rays, 256 indirect rays",
+        "final gather  texel scale 0.5, indirect texel scale 2; 64 light samples, 16 direct rays, 256 indirect rays; atlas denoiser none",
         "6 triangles, 3 faces",
         "shading 410 B",
         "propagate",

@@ -206,7 +206,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut R
             direct_rays: 4,
             indirect_rays: 64,
             sampling: vlf_core::lightfield::Sampling::FIXED,
-            denoise: false,
+            denoise: vlf_core::lightfield::Denoiser::Off,
         }),
         ..BakeParams::paper()
     };

@@ -66,7 +66,7 @@ fn gp(texel: f32, indirect: f32, light: u32, rays: u32) -> GatherParams {
         direct_rays: light.div_ceil(4),
         indirect_rays: rays,
         sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     }
 }
 
@@ -418,7 +418,7 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
         direct_rays: 256,
         indirect_rays: 4,
         sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let g = bake_and_gather(&scene, Vec3::ZERO, &p, 0);
     let ceiling = face_with_normal(&scene, Vec3::NEG_Y);

@@ -174,7 +174,7 @@ fn presets_markdown() -> String {
             g.light_samples,
             g.direct_rays,
             thousands(g.indirect_rays as f64),
-            if g.denoise { "on" } else { "off" },
+            g.denoise.name(),
             thousands(q.preset().gather_texel_budget),
         );
     }

@@ -244,7 +244,7 @@ fn fixed() -> GatherParams {
         direct_rays: 16,
         indirect_rays: 16,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     }
 }
 

@@ -44,7 +44,7 @@ fn bake_and_gather(scene: &Scene, sky: Vec3, texel: f32, points: u32) -> Gathere
         direct_rays: points,
         indirect_rays: points,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     final_gather(scene, &field, &gp, 0).unwrap()
 }

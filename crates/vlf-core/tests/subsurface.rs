@@ -484,7 +484,7 @@ fn paper_box_through_the_final_gather() {
             direct_rays: 16,
             indirect_rays: 64,
             sampling: Sampling::FIXED,
-            denoise: false,
+            denoise: vlf_core::lightfield::Denoiser::Off,
         }),
         ..BakeParams::paper()
     };

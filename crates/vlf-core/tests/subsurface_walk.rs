@@ -183,7 +183,7 @@ fn marble_block_under_sky_pipeline_against_walk() {
             direct_rays: 64,
             indirect_rays: 64,
             sampling: Sampling::FIXED,
-            denoise: false,
+            denoise: vlf_core::lightfield::Denoiser::Off,
         }),
         ..BakeParams::paper()
     };

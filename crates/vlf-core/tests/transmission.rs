@@ -75,7 +75,7 @@ fn a_half_cut_screen_passes_half_the_light_in_the_final_gather() {
         direct_rays: 64,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let mut means = Vec::new();
     for screen in [false, true] {
@@ -277,7 +277,7 @@ fn a_pane_passes_t_of_theta_in_the_final_gather() {
         direct_rays: 256,
         indirect_rays: 4,
         sampling: Sampling::FIXED,
-        denoise: false,
+        denoise: vlf_core::lightfield::Denoiser::Off,
     };
     let gathered = |scene: &Scene, sky: Vec3| {
         let p = BakeParams { sky, ..params() };

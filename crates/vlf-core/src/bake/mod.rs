@@ -33,6 +33,9 @@ pub enum BakeError {
     /// The propagated light holds a value no encoding can store (a bug or an overflow).
     #[error("{element}: {value:?} is not finite (NaN and infinity cannot be stored)")]
     NonFinite { element: String, value: [f32; 3] },
+    /// The final gather's denoiser could not run (`--denoise oidn`; `gather::GatherError`).
+    #[error("atlas denoiser: {0}")]
+    Denoiser(String),
 }
 
 /// Assembles a [`LightField`] from a scene, an atlas and the irradiance propagated (or

@@ -5,8 +5,8 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::lightfield::Sampling;
 use crate::lightfield::params::{BakeParams, DEFAULT_SEED, GatherParams, Iterations};
+use crate::lightfield::{Denoiser, Sampling};
 
 /// Parameter presets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -107,7 +107,7 @@ impl Preset {
                 target_error: 0.0,
                 max_rounds: 1,
             },
-            denoise: true,
+            denoise: Denoiser::Edge,
         },
         gather_texel_budget: 250e3,
     };
@@ -132,7 +132,7 @@ impl Preset {
                 target_error: 0.05,
                 max_rounds: 8,
             },
-            denoise: true,
+            denoise: Denoiser::Edge,
         },
         gather_texel_budget: 1e6,
     };
@@ -157,7 +157,7 @@ impl Preset {
                 target_error: 0.02,
                 max_rounds: 16,
             },
-            denoise: true,
+            denoise: Denoiser::Edge,
         },
         gather_texel_budget: 4e6,
     };

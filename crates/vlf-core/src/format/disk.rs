@@ -10,7 +10,9 @@ use bytemuck::{Pod, Zeroable};
 use serde::{Deserialize, Serialize};
 
 use crate::directions::{DirectionScheme, DirectionSet, DirectionSetDesc};
-use crate::lightfield::{BakeFace, BakeParams, BakeStats, BakeTriangle, GatherParams, Iterations};
+use crate::lightfield::{
+    BakeFace, BakeParams, BakeStats, BakeTriangle, Denoiser, GatherParams, Iterations,
+};
 use crate::scene::{Camera, SceneSummary, Similarity};
 
 /// The first 8 bytes of every `.vlf` file.
@@ -185,29 +187,48 @@ pub struct FileGatherSampling {
     pub guided: u32,
     pub target_error: f32,
     pub max_rounds: u32,
-    /// 1: the atlas was denoised ([`GatherParams::denoise`]).
+    /// The filter run over the atlas ([`GatherParams::denoise`]): [`DENOISE_OFF`],
+    /// [`DENOISE_EDGE`] or [`DENOISE_OIDN`]. Files before OIDN wrote 0 or 1 (a bool), which
+    /// read as before; a reader of that time reads 2 as 1 (some filter ran).
     pub denoise: u32,
 }
+
+/// [`FileGatherSampling::denoise`]: no filter.
+pub const DENOISE_OFF: u32 = 0;
+/// vlf's edge-aware filter (`gather::denoise`).
+pub const DENOISE_EDGE: u32 = 1;
+/// Intel Open Image Denoise's `RTLightmap` filter (`gather::denoise::oidn`).
+pub const DENOISE_OIDN: u32 = 2;
 
 impl FileGatherSampling {
     /// The record of `g`, or `None` when it sampled as before the section existed.
     pub fn of(g: &GatherParams) -> Option<Self> {
-        (!g.sampling.is_fixed() || g.denoise).then_some(FileGatherSampling {
+        (!g.sampling.is_fixed() || g.denoise.is_on()).then_some(FileGatherSampling {
             guided: u32::from(g.sampling.guided),
             target_error: g.sampling.target_error,
             max_rounds: g.sampling.max_rounds,
-            denoise: u32::from(g.denoise),
+            denoise: match g.denoise {
+                Denoiser::Off => DENOISE_OFF,
+                Denoiser::Edge => DENOISE_EDGE,
+                Denoiser::Oidn => DENOISE_OIDN,
+            },
         })
     }
 
-    /// Writes the record into `g`.
-    pub fn apply(&self, g: &mut GatherParams) {
+    /// Writes the record into `g`; an unknown denoiser is an error naming its value.
+    pub fn apply(&self, g: &mut GatherParams) -> Result<(), String> {
         g.sampling = crate::lightfield::Sampling {
             guided: self.guided != 0,
             target_error: self.target_error,
             max_rounds: self.max_rounds,
         };
-        g.denoise = self.denoise != 0;
+        g.denoise = match self.denoise {
+            DENOISE_OFF => Denoiser::Off,
+            DENOISE_EDGE => Denoiser::Edge,
+            DENOISE_OIDN => Denoiser::Oidn,
+            v => return Err(format!("unknown denoiser {v} (0 off, 1 vlf's, 2 OIDN)")),
+        };
+        Ok(())
     }
 }
 
@@ -430,7 +451,7 @@ impl From<&FileParams> for BakeParams {
                 indirect_rays: g.indirect_rays,
                 // The section `gather_sampling` holds these (`FileGatherSampling`).
                 sampling: crate::lightfield::Sampling::FIXED,
-                denoise: false,
+                denoise: crate::lightfield::Denoiser::Off,
             }),
         }
     }

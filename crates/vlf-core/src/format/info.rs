@@ -238,12 +238,13 @@ impl fmt::Display for FileInfo {
         match &p.final_gather {
             Some(g) => writeln!(
                 f,
-                "  final gather  texel scale {}, indirect texel scale {}; {} light samples, {} direct rays, {} indirect rays",
+                "  final gather  texel scale {}, indirect texel scale {}; {} light samples, {} direct rays, {} indirect rays; atlas denoiser {}",
                 g.texel_scale,
                 g.indirect_texel_scale,
                 g.light_samples,
                 g.direct_rays,
-                g.indirect_rays
+                g.indirect_rays,
+                g.denoise.describe()
             )?,
             None => writeln!(f, "  final gather  none (the atlas is the propagation's)")?,
         }

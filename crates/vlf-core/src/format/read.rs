@@ -550,7 +550,9 @@ pub(super) fn params_of(
     {
         let rec: Vec<disk::FileGatherSampling> = read_pod(src, s, path)?;
         match (rec.as_slice(), params.final_gather.as_mut()) {
-            ([r], Some(g)) => r.apply(g),
+            ([r], Some(g)) => r
+                .apply(g)
+                .map_err(|reason| content(("gather sampling".into(), reason)))?,
             _ => {
                 return Err(content((
                     "gather sampling".into(),

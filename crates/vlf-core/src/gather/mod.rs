@@ -103,6 +103,21 @@ pub struct GatherStats {
     /// What the atlas denoiser did, when it ran.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub denoise: Option<denoise::DenoiseStats>,
+    /// What OIDN's lightmap filter did, when it ran instead (`--denoise oidn`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oidn: Option<denoise::oidn::OidnStats>,
+    /// Wall-clock seconds the denoiser took (either), when one ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise_s: Option<f64>,
+}
+
+/// Why a final gather failed: its parameters, or the denoiser's library.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum GatherError {
+    #[error(transparent)]
+    Params(#[from] ParamsError),
+    #[error(transparent)]
+    Oidn(#[from] denoise::oidn::OidnError),
 }
 
 impl GatherStats {
@@ -729,13 +744,18 @@ pub fn dilated_irradiance(field: &Converged) -> Vec<[f32; 4]> {
     e
 }
 
-/// Runs the final gather over `field` on `threads` workers (0 = all cores).
+/// Runs the final gather over `field` on `threads` workers (0 = all cores). Fails before
+/// gathering when this build cannot run the denoiser asked for (`--denoise oidn` without the
+/// `oidn` feature).
 pub fn final_gather(
     scene: &Scene,
     field: &Converged,
     gp: &GatherParams,
     threads: usize,
-) -> Result<Gathered, ParamsError> {
+) -> Result<Gathered, GatherError> {
+    if !gp.denoise.available() {
+        return Err(denoise::oidn::OidnError::NotBuilt.into());
+    }
     let prep = field.prep;
     let ps = PreparedScene::new(scene);
     let g = Gatherer {
@@ -753,7 +773,7 @@ pub fn final_gather(
     };
     let grids = Grids::new(scene, field, gp)?;
     let pts = grids.indirect.points(scene, &g.ps.bvh);
-    if gp.sampling.is_fixed() && !gp.denoise {
+    if gp.sampling.is_fixed() && !gp.denoise.is_on() {
         let ind = crate::par::map(grids.indirect.atlas.texel_count(), threads, CHUNK, |t| {
             g.indirect(&pts, t, gp.indirect_rays)
         });

@@ -9,10 +9,10 @@ use serde::Serialize;
 use super::field::{Field, Quad, Tiles, chart_bilinear};
 use super::guide::{Cells, Guide, SkyMask};
 use super::{
-    CHUNK, Converged, DirectTexel, Gathered, Gatherer, Grid, Grids, IndirectTexel, TexelPoints,
-    assemble, denoise, luminance,
+    CHUNK, Converged, DirectTexel, GatherError, Gathered, Gatherer, Grid, Grids, IndirectTexel,
+    TexelPoints, assemble, denoise, luminance,
 };
-use crate::lightfield::{GatherParams, ParamsError};
+use crate::lightfield::{Denoiser, GatherParams};
 use crate::pathtrace::PreparedScene;
 use crate::scene::Scene;
 
@@ -36,7 +36,7 @@ pub(super) fn final_gather_sampled(
     gp: &GatherParams,
     grids: Grids,
     threads: usize,
-) -> Result<Gathered, ParamsError> {
+) -> Result<Gathered, GatherError> {
     let s = gp.sampling;
     let later: Option<Vec<[f32; 4]>> = field.first_bounce.map(|first| {
         field
@@ -140,22 +140,35 @@ pub(super) fn final_gather_sampled(
     let fine_texel = grids.direct.texel_size;
     let mut gathered = assemble(ps, field, grids, &ind_e, &dir_e, threads);
     gathered.stats.sampling = Some(SamplingStats::of(&dir, &var, &gathered.irradiance));
-    if gp.denoise {
-        // The stored atlas' grid again (the same atlas, deterministic), for its charts.
-        let grid = Grid::new(scene, fine_texel)?;
-        let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
-        let (e, stats) = denoise::denoise(
-            scene,
-            &ps.bvh,
-            &grid,
-            &gathered.irradiance,
-            &var,
-            &filled,
-            &denoise::DenoiseParams::default(),
-            threads,
-        );
-        gathered.irradiance = e;
-        gathered.stats.denoise = Some(stats);
+    let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
+    let t0 = std::time::Instant::now();
+    match gp.denoise {
+        Denoiser::Off => {}
+        Denoiser::Edge => {
+            // The stored atlas' grid again (the same atlas, deterministic), for its charts.
+            let grid = Grid::new(scene, fine_texel)?;
+            let (e, stats) = denoise::denoise(
+                scene,
+                &ps.bvh,
+                &grid,
+                &gathered.irradiance,
+                &var,
+                &filled,
+                &denoise::DenoiseParams::default(),
+                threads,
+            );
+            gathered.irradiance = e;
+            gathered.stats.denoise = Some(stats);
+        }
+        Denoiser::Oidn => {
+            let (e, stats) =
+                denoise::oidn::denoise(&gathered.atlas, &gathered.irradiance, &filled, threads)?;
+            gathered.irradiance = e;
+            gathered.stats.oidn = Some(stats);
+        }
+    }
+    if gp.denoise.is_on() {
+        gathered.stats.denoise_s = Some(t0.elapsed().as_secs_f64());
     }
     gathered.variance = Some(var);
     Ok(gathered)

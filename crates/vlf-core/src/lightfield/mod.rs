@@ -25,7 +25,7 @@ use crate::scene::{Camera, SceneSummary, Similarity};
 pub use encoding::{DEFAULT_ENCODING, RadianceEncoding};
 pub use geometry::{BakeFace, BakeTriangle, FACE_DIFFUSE, FACE_MIRROR, FACE_MIXED};
 pub use mask::AlphaMasks;
-pub use params::{BakeParams, GatherParams, Iterations, ParamsError, Sampling};
+pub use params::{BakeParams, Denoiser, GatherParams, Iterations, ParamsError, Sampling};
 pub use radiance::{InvalidStoredRadiance, NonFiniteRadiance, Radiance};
 pub use shading::{InvalidShading, NO_TEXTURE, Shading, SurfaceMaterial, SurfaceTexture};
 pub use tiles::TileIndex;

@@ -57,9 +57,53 @@ pub struct GatherParams {
     /// Guided and adaptive sampling of the stored atlas' direct light.
     #[serde(default)]
     pub sampling: Sampling,
-    /// The edge-aware atlas denoiser runs over the gathered atlas (`gather::denoise`).
+    /// Which filter runs over the gathered atlas (`gather::denoise`), if any.
     #[serde(default)]
-    pub denoise: bool,
+    pub denoise: Denoiser,
+}
+
+/// The filter run over the gathered atlas (`docs/GATHER.md`, *Denoising the atlas*).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Denoiser {
+    /// None: the gathered estimates as they are.
+    #[default]
+    Off,
+    /// vlf's edge-aware filter (`gather::denoise::denoise`; `--denoise on`).
+    Edge,
+    /// Intel Open Image Denoise's `RTLightmap` filter over the atlas packed into an image
+    /// (`gather::denoise::oidn`; `--denoise oidn`), in builds with the `oidn` feature only.
+    Oidn,
+}
+
+impl Denoiser {
+    /// Whether a filter runs.
+    pub fn is_on(self) -> bool {
+        self != Denoiser::Off
+    }
+
+    /// Whether this build can run it: OIDN only with the `oidn` feature.
+    pub fn available(self) -> bool {
+        self != Denoiser::Oidn || cfg!(feature = "oidn")
+    }
+
+    /// What `vlf-bake info` calls it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Denoiser::Off => "none",
+            Denoiser::Edge => "vlf's edge-aware filter",
+            Denoiser::Oidn => "OIDN RTLightmap",
+        }
+    }
+
+    /// The command line's name (`--denoise on|off|oidn`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Denoiser::Off => "off",
+            Denoiser::Edge => "on",
+            Denoiser::Oidn => "oidn",
+        }
+    }
 }
 
 /// How the final gather spends its rays on the stored atlas (`docs/GATHER.md`, *Guided rays*
@@ -99,6 +143,13 @@ impl Default for Sampling {
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ParamsError {
+    /// A setting this build cannot honour (an optional feature it was built without).
+    #[error("{name} = {value}: {reason}")]
+    Unavailable {
+        name: &'static str,
+        value: &'static str,
+        reason: &'static str,
+    },
     #[error("--resolution {resolution} is not a multiple of --tile {tile}")]
     TileMismatch { resolution: u32, tile: u32 },
     #[error("{name} = {value} is out of range ({range})")]
@@ -108,6 +159,10 @@ pub enum ParamsError {
         range: &'static str,
     },
 }
+
+/// Why `--denoise oidn` is refused by a build without the `oidn` feature.
+pub const OIDN_MISSING: &str = "this build has no Intel Open Image Denoise: build with \
+     `--features oidn` and OIDN_DIR set (docs/GATHER.md, \"OIDN's lightmap filter\")";
 
 /// Default seed for perturbed directions.
 pub const DEFAULT_SEED: u64 = 0x5eed_0001;
@@ -125,6 +180,20 @@ impl BakeParams {
             perturb: 0,
             seed: DEFAULT_SEED,
             final_gather: None,
+        }
+    }
+
+    /// Whether this build can bake with these parameters: `--denoise oidn` needs the `oidn`
+    /// feature. What a baker checks before it starts; [`Self::validate`] does not, so a file
+    /// baked with OIDN reads (and renders) in every build.
+    pub fn check_available(&self) -> Result<(), ParamsError> {
+        match &self.final_gather {
+            Some(g) if !g.denoise.available() => Err(ParamsError::Unavailable {
+                name: "denoise",
+                value: g.denoise.name(),
+                reason: OIDN_MISSING,
+            }),
+            _ => Ok(()),
         }
     }
 

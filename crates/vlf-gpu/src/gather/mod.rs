@@ -418,7 +418,7 @@ pub fn final_gather_recorded(
     options: &GatherOptions,
     record: &mut GatherRecord,
 ) -> Result<Gathered, GpuGatherError> {
-    if !gp.sampling.is_fixed() || gp.denoise {
+    if !gp.sampling.is_fixed() || gp.denoise.is_on() {
         return Err(GpuGatherError::Unsupported);
     }
     let grids = Grids::new(scene, field, gp)?;

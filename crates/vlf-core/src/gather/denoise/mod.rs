@@ -627,5 +627,7 @@ pub fn denoise(
     (cur, stats)
 }
 
+pub mod oidn;
+
 #[cfg(test)]
 mod tests;

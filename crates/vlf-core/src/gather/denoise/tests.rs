@@ -4,9 +4,9 @@ use crate::pathtrace::sampling::{Rng, pcg_hash};
 use crate::scene::SceneBuilder;
 
 /// Texels across 2 world units.
-const ACROSS: f32 = 64.0;
+pub(crate) const ACROSS: f32 = 64.0;
 
-fn grid(scene: &Scene, across: f32) -> Grid {
+pub(crate) fn grid(scene: &Scene, across: f32) -> Grid {
     Grid::new(scene, 2.0 * scene.to_vlf.scale / across).unwrap()
 }
 
@@ -20,7 +20,7 @@ fn gauss(rng: &mut Rng) -> f32 {
 /// blotches a standard normal per node of a lattice of 2-texel spacing (the indirect
 /// grid), read bilinearly, times `coarse`; the white part `white` × a standard normal per
 /// texel. Returns the values, the exact means and the variances of luminance.
-fn synthetic(
+pub(crate) fn synthetic(
     scene: &Scene,
     g: &Grid,
     mean: impl Fn(Vec3, usize) -> f32,
@@ -82,7 +82,7 @@ fn floor(b: &mut SceneBuilder, x0: f32, x1: f32, y: f32, m: u32) {
     );
 }
 
-fn plane() -> Scene {
+pub(crate) fn plane() -> Scene {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     floor(&mut b, -1.0, 1.0, 0.0, grey);
@@ -224,7 +224,7 @@ fn a_step_edge_far_above_the_noise_is_not_mixed() {
 
 /// A crate standing on the floor: four walls and a lid facing inwards, no bottom, so the
 /// floor inside is open (it has an estimate) but sees nothing of the floor outside.
-fn crate_on_floor() -> Scene {
+pub(crate) fn crate_on_floor() -> Scene {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     floor(&mut b, -1.0, 1.0, 0.0, grey);
@@ -245,7 +245,7 @@ fn crate_on_floor() -> Scene {
 }
 
 /// Which texels hold an estimate, as the gather decides it: those with an open point.
-fn gather_filled(scene: &Scene, g: &Grid) -> Vec<bool> {
+pub(crate) fn gather_filled(scene: &Scene, g: &Grid) -> Vec<bool> {
     let ps = PreparedScene::new(scene);
     let pts = g.points(scene, &ps.bvh);
     (0..g.atlas.texel_count())
