@@ -59,6 +59,9 @@ struct Bake {
     device: String,
     adapter: String,
     total_s: f64,
+    propagate_s: f64,
+    /// `gpu_propagation` of the report (GPU path only).
+    gpu: Option<serde_json::Value>,
 }
 
 pub fn gpu_timing(root: &Path, args: &[String]) -> Result<()> {
@@ -108,6 +111,12 @@ pub fn gpu_timing(root: &Path, args: &[String]) -> Result<()> {
             total_s: v["total_s"]
                 .as_f64()
                 .context("no total_s in the bake report")?,
+            propagate_s: v["phases_s"]
+                .as_array()
+                .and_then(|p| p.iter().find(|x| x[0] == "propagate"))
+                .and_then(|x| x[1].as_f64())
+                .context("no propagate phase in the bake report")?,
+            gpu: Some(v["gpu_propagation"].clone()).filter(|g| !g.is_null()),
         })
     };
     let gpu = bake("gpu")?;
@@ -136,6 +145,10 @@ pub fn gpu_timing(root: &Path, args: &[String]) -> Result<()> {
     );
     println!("| bake, CPU path | {:.2} s | |", cpu.total_s);
     println!(
+        "| propagation, GPU path / CPU path | {:.2} s / {:.2} s | |",
+        gpu.propagate_s, cpu.propagate_s
+    );
+    println!(
         "| walkthrough {}, median of {} frames | {median_ms:.2} ms ({:.0} fps) | {:.2} ms ({PAPER_FPS} fps) |",
         o.size,
         o.frames,
@@ -143,10 +156,54 @@ pub fn gpu_timing(root: &Path, args: &[String]) -> Result<()> {
         1000.0 / PAPER_FPS
     );
     println!("per pass: {}", bench.lines().nth(1).unwrap_or("").trim());
+    let g = gpu
+        .gpu
+        .as_ref()
+        .context("the GPU bake's report has no gpu_propagation")?;
+    println!("{}", propagation_summary(g)?);
     if o.quick {
         println!("(--quick: small sizes, the script checked end to end; not the figures)");
     }
     Ok(())
+}
+
+/// The GPU propagation's counts per iteration (the most over the iterations) and its device
+/// time per pass, from the report's `gpu_propagation`.
+fn propagation_summary(g: &serde_json::Value) -> Result<String> {
+    let m = &g["max_per_iteration"];
+    let d = m["dispatches"]
+        .as_object()
+        .context("no dispatches in gpu_propagation")?;
+    let dispatches: Vec<String> = d.iter().map(|(k, v)| format!("{k} {v}")).collect();
+    let mut out = format!(
+        "GPU propagation per iteration (most): dispatches {}; {} submit(s), {} host wait(s), {} bytes read back; {} direction(s) per dispatch",
+        dispatches.join(", "),
+        m["submits"],
+        m["waits"],
+        m["readback_bytes"],
+        g["directions_per_dispatch"],
+    );
+    if g["timestamps"].as_bool() == Some(true) {
+        let times: Vec<String> = g["device_ms"]
+            .as_array()
+            .context("no device_ms in gpu_propagation")?
+            .iter()
+            .map(|p| {
+                format!(
+                    "{} {:.1} ms",
+                    p[0].as_str().unwrap_or("?"),
+                    p[1].as_f64().unwrap_or(0.0)
+                )
+            })
+            .collect();
+        out += &format!(
+            "\nGPU propagation device time (timestamp queries, all iterations): {}",
+            times.join(", ")
+        );
+    } else {
+        out += "\nGPU propagation device time: the adapter has no timestamp queries";
+    }
+    Ok(out)
 }
 
 /// Runs `cmd`, echoing it on stderr, and returns its stdout; fails naming `name`.

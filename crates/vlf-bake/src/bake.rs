@@ -163,6 +163,75 @@ pub struct BakeReport {
     pub warnings: Vec<String>,
     /// Why `--quality` chose these parameters for this scene.
     pub auto: Vec<String>,
+    /// What the GPU propagation asked of the device (absent on the CPU path).
+    pub gpu_propagation: Option<GpuPropagationReport>,
+}
+
+/// `vlf_gpu::bake::GpuBakeStats` in the report: per iteration, the dispatches of each pass
+/// kind, the submits, the host's blocking waits, the bytes read back and the device time per
+/// pass kind (timestamp queries; `null` where the adapter has none).
+#[derive(Serialize)]
+pub struct GpuPropagationReport {
+    /// The adapter has `TIMESTAMP_QUERY`.
+    pub timestamps: bool,
+    /// Directions one dispatch of a pass covers at most.
+    pub directions_per_dispatch: u32,
+    /// Per iteration, the most and the total over the iterations.
+    pub max_per_iteration: GpuIterationReport,
+    pub iterations: Vec<GpuIterationReport>,
+    /// Device milliseconds by pass over the whole propagation (empty without timestamps).
+    pub device_ms: Vec<(String, f64)>,
+}
+
+#[derive(Serialize)]
+pub struct GpuIterationReport {
+    /// Dispatches per pass kind (cells, interface, gather, reflect).
+    pub dispatches: std::collections::BTreeMap<String, u32>,
+    pub submits: u32,
+    pub waits: u32,
+    pub readback_bytes: u64,
+    pub device_ms: Vec<(String, f64)>,
+}
+
+impl GpuPropagationReport {
+    fn new(s: &vlf_gpu::bake::GpuBakeStats) -> GpuPropagationReport {
+        use vlf_gpu::bake::PassKind;
+        let dispatches = |f: &dyn Fn(PassKind) -> u32| {
+            PassKind::ALL
+                .iter()
+                .map(|&k| (k.name().to_string(), f(k)))
+                .collect()
+        };
+        let ms = |v: &[(&str, f64)]| v.iter().map(|(l, t)| (l.to_string(), *t)).collect();
+        GpuPropagationReport {
+            timestamps: s.timestamps,
+            directions_per_dispatch: s.directions_per_dispatch,
+            max_per_iteration: GpuIterationReport {
+                dispatches: dispatches(&|k| s.max_over(|i| i.dispatches_of(k))),
+                submits: s.max_over(|i| i.submits),
+                waits: s.max_over(|i| i.waits),
+                readback_bytes: s
+                    .iterations
+                    .iter()
+                    .map(|i| i.readback_bytes)
+                    .max()
+                    .unwrap_or(0),
+                device_ms: Vec::new(),
+            },
+            iterations: s
+                .iterations
+                .iter()
+                .map(|i| GpuIterationReport {
+                    dispatches: dispatches(&|k| i.dispatches_of(k)),
+                    submits: i.submits,
+                    waits: i.waits,
+                    readback_bytes: i.readback_bytes,
+                    device_ms: ms(&i.device_ms),
+                })
+                .collect(),
+            device_ms: ms(&s.device_ms_total()),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -319,6 +388,7 @@ pub fn bake_scene(
         let total = u64::from(p.max_iterations) * p.directions as u64;
         progress(done, total, &format!("iteration {}", p.iteration + 1));
     };
+    let mut gpu_stats = None;
     let (out, adapter) = match compute {
         // The GPU propagator has no subsurface step yet (docs/SUBSURFACE.md): scenes with
         // translucent materials propagate on the CPU.
@@ -336,19 +406,18 @@ pub fn bake_scene(
             let out = memory::guard_gpu(ctx, &plan, || {
                 // The memory plan holds the propagator's buffer plan: the propagator allocates
                 // exactly what the budget counted, without binning every direction again.
-                match &plan.gpu {
-                    Some(gpu_plan) => vlf_gpu::bake::propagate_planned(
-                        ctx,
-                        gpu_plan,
-                        &prep,
-                        &set,
-                        params,
-                        &mut report,
-                    ),
-                    None => vlf_gpu::bake::propagate(ctx, &prep, &set, params, &mut report),
-                }
+                vlf_gpu::bake::propagate_counted(
+                    ctx,
+                    plan.gpu.as_ref(),
+                    &prep,
+                    &set,
+                    params,
+                    &mut report,
+                )
                 .context("GPU propagation")
             })?;
+            let (out, stats) = out;
+            gpu_stats = Some(GpuPropagationReport::new(&stats));
             (out, ctx.summary.to_string())
         }
         Compute::Cpu(_) => (
@@ -458,6 +527,7 @@ pub fn bake_scene(
             .cloned()
             .collect(),
         auto: auto_reasons,
+        gpu_propagation: gpu_stats,
     })
 }
 

@@ -50,3 +50,52 @@ pub fn read_buffer<T: bytemuck::Pod>(
     staging.unmap();
     Ok(out)
 }
+
+/// Submits `encoder` with copies of every `(buffer, bytes)` of `sources` (each needs
+/// `COPY_SRC`; sizes multiples of 4) appended into one staging buffer, and reads them back
+/// with one blocking wait: the bytes of each, in order.
+pub fn read_buffers(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    mut encoder: wgpu::CommandEncoder,
+    sources: &[(&wgpu::Buffer, u64)],
+) -> Result<Vec<Vec<u8>>, wgpu::BufferAsyncError> {
+    // 8-byte aligned parts, so that each can be cast to u64 timestamps too.
+    let mut offsets = Vec::with_capacity(sources.len());
+    let mut size = 0u64;
+    for &(_, bytes) in sources {
+        offsets.push(size);
+        size += bytes.next_multiple_of(8);
+    }
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("Readback::staging"),
+        size: size.max(8),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    for (&(buffer, bytes), &at) in sources.iter().zip(&offsets) {
+        if bytes > 0 {
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, at, bytes);
+        }
+    }
+    queue.submit(Some(encoder.finish()));
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging
+        .slice(..)
+        .map_async(wgpu::MapMode::Read, move |r| drop(tx.send(r)));
+    let _ = device.poll(wgpu::PollType::wait_indefinitely());
+    rx.recv().map_err(|_| wgpu::BufferAsyncError)??;
+    let out = {
+        let view = staging
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|_| wgpu::BufferAsyncError)?;
+        sources
+            .iter()
+            .zip(&offsets)
+            .map(|(&(_, bytes), &at)| view[at as usize..(at + bytes) as usize].to_vec())
+            .collect()
+    };
+    staging.unmap();
+    Ok(out)
+}

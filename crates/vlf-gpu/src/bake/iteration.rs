@@ -8,14 +8,15 @@ use vlf_core::bake::reference::{self, EnergyStats, IterationEnergy, Shooting, Te
 
 use super::pipelines::BakePipelines;
 use super::resources::{Host, SceneResources};
+use super::stats::{IterationStats, PassKind, PassTimer};
 use super::{DIR_STRIDE, GpuBakeError, Progress};
 use crate::GpuContext;
 use crate::layout;
-use crate::readback::read_buffer;
+use crate::readback::read_buffers;
 use crate::wgpu_util::dispatch_2d;
 
 /// Directions encoded per submission (progress granularity).
-const DIRS_PER_SUBMIT: usize = 32;
+pub(super) const DIRS_PER_SUBMIT: usize = 32;
 
 /// The radiance the host keeps between iterations.
 pub(super) struct HostRadiance {
@@ -66,12 +67,12 @@ impl HostRadiance {
 /// (the suns in the first iteration only) and adds what arrives to the irradiance and the tiles'
 /// totals.
 pub(super) fn run_iteration(
-    ctx: &GpuContext,
-    pipelines: &BakePipelines,
-    res: &SceneResources,
+    (ctx, pipelines, res): (&GpuContext, &BakePipelines, &SceneResources),
     host: &Host,
     state: &mut HostRadiance,
     (it, max_iter): (u32, u32),
+    mut timer: Option<&mut PassTimer>,
+    stats: &mut IterationStats,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(), GpuBakeError> {
     let (device, queue) = (&ctx.device, &ctx.queue);
@@ -100,6 +101,7 @@ pub(super) fn run_iteration(
     encoder.clear_buffer(&b.spec_escape, 0, None);
     encoder.clear_buffer(&b.pane_energy, 0, None);
     queue.submit(Some(encoder.finish()));
+    stats.submits += 1;
 
     let n = host.params.resolution;
     let m = host.params.tile;
@@ -114,10 +116,8 @@ pub(super) fn run_iteration(
             label: Some("Bake::directions"),
         });
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("Bake::pass"),
-                timestamp_writes: None,
-            });
+            let mut pass =
+                PassTimer::begin(timer.as_deref_mut(), &mut encoder, "directions (all kinds)");
             for &d in batch {
                 let offset = [(d as u64 * DIR_STRIDE) as u32];
                 let chunk = &res.chunks[host.slots[d].chunk];
@@ -125,13 +125,16 @@ pub(super) fn run_iteration(
                 pass.set_pipeline(&pipelines.cells.pipeline);
                 pass.set_bind_group(1, &chunk.cells, &[]);
                 pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                stats.dispatched(PassKind::Cells);
                 pass.set_pipeline(&pipelines.interface.pipeline);
                 pass.set_bind_group(1, &res.interface, &[]);
                 pass.dispatch_workgroups(cell_groups.0, cell_groups.1, 1);
+                stats.dispatched(PassKind::Interface);
                 if !host.active.is_empty() {
                     pass.set_pipeline(&pipelines.gather.pipeline);
                     pass.set_bind_group(1, &res.gather, &[]);
                     pass.dispatch_workgroups(texel_groups.0, texel_groups.1, 1);
+                    stats.dispatched(PassKind::Gather);
                 }
                 let count = host.items(d);
                 if count > 0 {
@@ -139,11 +142,14 @@ pub(super) fn run_iteration(
                     pass.set_pipeline(&pipelines.reflect.pipeline);
                     pass.set_bind_group(1, &chunk.reflect, &[]);
                     pass.dispatch_workgroups(g.0, g.1, 1);
+                    stats.dispatched(PassKind::Reflect);
                 }
             }
         }
         queue.submit(Some(encoder.finish()));
         let _ = device.poll(wgpu::PollType::wait_indefinitely());
+        stats.submits += 1;
+        stats.waits += 1;
         progress(Progress {
             iteration: it,
             max_iterations: max_iter,
@@ -152,16 +158,42 @@ pub(super) fn run_iteration(
         });
     }
 
-    let over: Vec<u32> =
-        read_buffer(device, queue, &b.overflow).map_err(|_| GpuBakeError::Readback)?;
+    // Everything the host reads of this iteration, in one copy and one wait.
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("Bake::readback"),
+    });
+    let ticks = timer.as_deref().and_then(|t| t.resolve(&mut encoder));
+    let panes = host.scene.panes.iter().any(|p| p.weight > 0.0);
+    let spec = host.setup.spec.is_some();
+    fn whole(buffer: &wgpu::Buffer, wanted: bool) -> (&wgpu::Buffer, u64) {
+        (buffer, if wanted { buffer.size() } else { 0 })
+    }
+    let mut sources = vec![
+        whole(&b.overflow, true),
+        whole(&b.accumulators, true),
+        whole(&b.pane_energy, panes),
+        whole(&b.next_tiles, spec),
+        whole(&b.spec_escape, spec),
+    ];
+    sources.extend(ticks);
+    let parts =
+        read_buffers(device, queue, encoder, &sources).map_err(|_| GpuBakeError::Readback)?;
+    stats.submits += 1;
+    stats.waits += 1;
+    stats.readback_bytes += parts.iter().map(|p| p.len() as u64).sum::<u64>();
+    if let Some(t) = timer {
+        stats.device_ms = parts
+            .get(5)
+            .map_or_else(Vec::new, |p| t.take(&bytemuck::pod_collect_to_vec(p)));
+    }
+    let over: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[0]);
     if over[0] > 0 {
         return Err(GpuBakeError::DepthComplexity {
             crossings: over[0],
             max: host.plan.crossings_per_ray(),
         });
     }
-    let gpu_acc: Vec<layout::TexelAccum> =
-        read_buffer(device, queue, &b.accumulators).map_err(|_| GpuBakeError::Readback)?;
+    let gpu_acc: Vec<layout::TexelAccum> = bytemuck::pod_collect_to_vec(&parts[1]);
     let acc_host: Vec<TexelAccum> = gpu_acc
         .iter()
         .take(n_tex)
@@ -187,9 +219,8 @@ pub(super) fn run_iteration(
         &mut state.next,
         &mut state.irradiance,
     );
-    if scene.panes.iter().any(|p| p.weight > 0.0) {
-        let pe: Vec<[f32; 4]> =
-            read_buffer(device, queue, &b.pane_energy).map_err(|_| GpuBakeError::Readback)?;
+    if panes {
+        let pe: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&parts[2]);
         let sum = |k: usize| pe.iter().map(|v| f64::from(v[k])).sum::<f64>();
         reference::PaneEnergy {
             absorbed: sum(0),
@@ -199,11 +230,9 @@ pub(super) fn run_iteration(
         .apply(&mut e);
     }
     if let Some(sp) = &host.setup.spec {
-        let mut next_tiles: Vec<[f32; 4]> =
-            read_buffer(device, queue, &b.next_tiles).map_err(|_| GpuBakeError::Readback)?;
+        let mut next_tiles: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&parts[3]);
         next_tiles.truncate(tile_len);
-        let esc: Vec<[f32; 4]> =
-            read_buffer(device, queue, &b.spec_escape).map_err(|_| GpuBakeError::Readback)?;
+        let esc: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&parts[4]);
         e.escaped += esc
             .iter()
             .map(|v| f64::from(v[0]) + f64::from(v[1]) + f64::from(v[2]))

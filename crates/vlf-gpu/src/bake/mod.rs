@@ -29,6 +29,7 @@ pub mod pipelines;
 pub mod plan;
 mod reflect;
 pub mod resources;
+pub mod stats;
 
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
@@ -39,6 +40,7 @@ pub use chunks::{Chunk, ChunkBytes, Chunker, DEFAULT_MAX_CHUNK_BYTES, chunk_cap}
 pub use pipelines::BakePipelines;
 pub use plan::{BakeBuffer, BakePlan, MirrorCounts, PlannedBuffer};
 pub use resources::{AllocatedBuffer, SceneResources};
+pub use stats::{GpuBakeStats, IterationStats, PassKind};
 
 use crate::GpuContext;
 use plan::Setup;
@@ -118,6 +120,7 @@ pub fn propagate_with(
         Host::new(scene, set, params, &plan, Some(setup)),
         progress,
     )
+    .map(|(out, _)| out)
 }
 
 /// [`propagate`] with a plan already made for this scene and these parameters
@@ -131,7 +134,32 @@ pub fn propagate_planned(
     params: &BakeParams,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Propagated, GpuBakeError> {
-    run(ctx, Host::new(scene, set, params, plan, None), progress)
+    propagate_counted(ctx, Some(plan), scene, set, params, progress).map(|(out, _)| out)
+}
+
+/// [`propagate_planned`] (or [`propagate`] when `plan` is `None`) that also says what it
+/// asked of the device: dispatches, submits, waits and device times per iteration.
+pub fn propagate_counted(
+    ctx: &GpuContext,
+    plan: Option<&BakePlan>,
+    scene: &BakeScene,
+    set: &DirectionSet,
+    params: &BakeParams,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Propagated, GpuBakeStats), GpuBakeError> {
+    match plan {
+        Some(plan) => run(ctx, Host::new(scene, set, params, plan, None), progress),
+        None => {
+            let setup = Setup::new(scene, set, params);
+            let cap = chunk_cap(binding_limit(&ctx.device), None);
+            let plan = BakePlan::from_setup(scene, params, &setup, cap);
+            run(
+                ctx,
+                Host::new(scene, set, params, &plan, Some(setup)),
+                progress,
+            )
+        }
+    }
 }
 
 /// The driver: the device's pipelines, the scene's resources, then iterations until the
@@ -140,21 +168,29 @@ fn run(
     ctx: &GpuContext,
     mut host: Host,
     progress: &mut dyn FnMut(Progress),
-) -> Result<Propagated, GpuBakeError> {
+) -> Result<(Propagated, GpuBakeStats), GpuBakeError> {
     let pipelines = BakePipelines::of(ctx);
     let res = SceneResources::build(ctx, &pipelines, &mut host)?;
+    let passes = host.setup.dirs.len().div_ceil(iteration::DIRS_PER_SUBMIT) as u32;
+    let mut timer = stats::PassTimer::new(&ctx.device, &ctx.queue, passes);
+    let mut stats = GpuBakeStats {
+        timestamps: timer.is_some(),
+        directions_per_dispatch: 1,
+        iterations: Vec::new(),
+    };
     let mut state = iteration::HostRadiance::new(&host);
     let (max_iter, threshold) = reference::stopping(host.params.iterations);
     let mut iterations = 0;
     let mut first_bounce = None;
     for it in 0..max_iter {
+        stats.iterations.push(IterationStats::default());
         iteration::run_iteration(
-            ctx,
-            &pipelines,
-            &res,
+            (ctx, &pipelines, &res),
             &host,
             &mut state,
             (it, max_iter),
+            timer.as_mut(),
+            stats.iterations.last_mut().expect("pushed"),
             progress,
         )?;
         iterations = it + 1;
@@ -165,11 +201,14 @@ fn run(
             break;
         }
     }
-    Ok(Propagated {
-        irradiance: state.irradiance,
-        first_bounce,
-        tiles: host.setup.spec.map(|s| (s.index, state.total_tiles)),
-        iterations,
-        energy: state.energy,
-    })
+    Ok((
+        Propagated {
+            irradiance: state.irradiance,
+            first_bounce,
+            tiles: host.setup.spec.map(|s| (s.index, state.total_tiles)),
+            iterations,
+            energy: state.energy,
+        },
+        stats,
+    ))
 }
