@@ -9,11 +9,10 @@
 //! * mirror Cornell box, mirror pixels traced in pass 5 (the default) ≤ 1e-3 (measured 7.15e-4);
 //!   with the tiles resampled after propagation ≤ 2.6e-3 (measured 2.28e-3; 3.08e-3 as
 //!   propagated);
-//! * fog-room ≤ 1.6e-2 (measured 1.30e-2 with the refined sky guide, 1.58e-2 before; the
-//!   reference's own noise ~3e-3);
+//! * fog-room ≤ 1.6e-2 (measured 1.30e-2; the reference's own noise ~3e-3);
 //! * cornell-suzanne (glossy Suzanne, lobe sampled in pass 5) ≤ 1.8e-4 (measured 1.30e-4);
 //! * lava-circuit by mean HDR-FLIP, whose reference's noise near black pixels makes relMSE
-//!   meaningless (`reference/README.md`), ≤ 0.11 (measured 0.104; 0.107 before the refined sky guide), its mean radiance within 2 %
+//!   meaningless (`reference/README.md`), ≤ 0.11 (measured 0.104), its mean radiance within 2 %
 //!   of the reference's (measured 0.5 %);
 //! * window-room (issue 24) ≤ 6e-4, mean FLIP ≤ 0.097 (measured 5.18e-4, 0.0915);
 //! * window-room-glazed (issue 25) ≤ 7.5e-4, mean FLIP ≤ 0.096 (measured 6.77e-4, 0.0908);
