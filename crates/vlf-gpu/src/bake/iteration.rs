@@ -162,7 +162,9 @@ pub(super) fn run_iteration(
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("Bake::readback"),
     });
-    let ticks = timer.as_deref().and_then(|t| t.resolve(&mut encoder));
+    let ticks = timer
+        .as_deref()
+        .and_then(|t| t.resolve(device, &mut encoder));
     let panes = host.scene.panes.iter().any(|p| p.weight > 0.0);
     let spec = host.setup.spec.is_some();
     fn whole(buffer: &wgpu::Buffer, wanted: bool) -> (&wgpu::Buffer, u64) {
@@ -175,7 +177,7 @@ pub(super) fn run_iteration(
         whole(&b.next_tiles, spec),
         whole(&b.spec_escape, spec),
     ];
-    sources.extend(ticks);
+    sources.extend(ticks.as_ref().map(|(buffer, bytes)| (buffer, *bytes)));
     let parts =
         read_buffers(device, queue, encoder, &sources).map_err(|_| GpuBakeError::Readback)?;
     stats.submits += 1;

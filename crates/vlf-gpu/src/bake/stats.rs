@@ -86,10 +86,11 @@ impl GpuBakeStats {
     }
 }
 
-/// Begin/end timestamps around compute passes, resolved once per iteration.
+/// Begin/end timestamps around compute passes, resolved once per iteration (into a buffer
+/// made for that readback and dropped with it, like the readback's staging buffer, so the
+/// buffers alive while the iteration runs stay the plan's).
 pub(super) struct PassTimer {
     query_set: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
     /// Pairs the query set holds.
     capacity: u32,
     period_ns: f64,
@@ -110,15 +111,8 @@ impl PassTimer {
             ty: wgpu::QueryType::Timestamp,
             count: capacity * 2,
         });
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("Bake::timestamp_resolve"),
-            size: u64::from(capacity) * 16,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
         Some(PassTimer {
             query_set,
-            resolve,
             capacity,
             period_ns: f64::from(queue.get_timestamp_period()),
             labels: Vec::new(),
@@ -148,15 +142,25 @@ impl PassTimer {
         })
     }
 
-    /// Resolves the pairs written so far into the resolve buffer: the buffer and the bytes to
-    /// read back (`None` when nothing was timed).
-    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) -> Option<(&wgpu::Buffer, u64)> {
+    /// Resolves the pairs written so far into a new resolve buffer: the buffer and the bytes
+    /// to read back (`None` when nothing was timed).
+    pub fn resolve(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Option<(wgpu::Buffer, u64)> {
         let n = self.labels.len() as u32;
         if n == 0 {
             return None;
         }
-        encoder.resolve_query_set(&self.query_set, 0..2 * n, &self.resolve, 0);
-        Some((&self.resolve, u64::from(n) * 16))
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("Bake::timestamp_resolve"),
+            size: u64::from(n) * 16,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        encoder.resolve_query_set(&self.query_set, 0..2 * n, &resolve, 0);
+        Some((resolve, u64::from(n) * 16))
     }
 
     /// The times of the pairs written since the last call, summed by label, from the `ticks`
