@@ -351,6 +351,49 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
 /// Point and spot lights (with a sun and an emitter, so next-event estimation picks among delta
 /// lights and between them and emitters) on the GPU tracer: the CPU tracer's image within the
 /// noise of an independent CPU render (same streams), for both kernels.
+/// Both GPU kernels' images of `prep` against the CPU tracer's (same streams): relMSE at most
+/// that of two CPU renders (seeds `s.seed` and `seed2`), and image means within 5 standard
+/// errors.
+fn both_kernels_agree_with_cpu(
+    ctx: &vlf_gpu::GpuContext,
+    prep: &PreparedScene,
+    camera: &PinholeCamera,
+    s: &RenderSettings,
+    seed2: u32,
+    what: &str,
+) {
+    let cpu = render(prep, camera, s, &|_, _| {}).unwrap();
+    let cpu2 = render(
+        prep,
+        camera,
+        &RenderSettings {
+            seed: seed2,
+            ..s.clone()
+        },
+        &|_, _| {},
+    )
+    .unwrap();
+    let noise = rel_mse(&cpu2, &cpu);
+    let tracer = GpuPathTracer::new(&ctx.device);
+    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
+        let options = GpuRenderOptions {
+            kernel,
+            ..Default::default()
+        };
+        let (img, _) = tracer
+            .render(ctx, prep, camera, s, &options, &|_, _| {})
+            .unwrap();
+        let d = rel_mse(&img, &cpu);
+        eprintln!(
+            "{what} {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds: {noise:.3e}); means {:?} vs {:?}",
+            img.mean(),
+            cpu.mean()
+        );
+        assert!(d <= noise, "{what} {kernel:?}: {d:.3e} > {noise:.3e}");
+        assert_means_agree(&img, &cpu, &cpu2, &format!("{what} {kernel:?}"));
+    }
+}
+
 #[test]
 fn gpu_matches_cpu_with_point_and_spot_lights() {
     use vlf_core::scene::{PunctualKind, PunctualLight, SceneBuilder};
@@ -419,36 +462,7 @@ fn gpu_matches_cpu_with_point_and_spot_lights() {
         48,
     )
     .unwrap();
-    let cpu = render(&prep, &camera, &s, &|_, _| {}).unwrap();
-    let cpu2 = render(
-        &prep,
-        &camera,
-        &RenderSettings {
-            seed: 5,
-            ..s.clone()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    let noise = rel_mse(&cpu2, &cpu);
-    let tracer = GpuPathTracer::new(&ctx.device);
-    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
-        let options = GpuRenderOptions {
-            kernel,
-            ..Default::default()
-        };
-        let (img, _) = tracer
-            .render(ctx, &prep, &camera, &s, &options, &|_, _| {})
-            .unwrap();
-        let d = rel_mse(&img, &cpu);
-        eprintln!(
-            "lamps {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds: {noise:.3e}); means {:?} vs {:?}",
-            img.mean(),
-            cpu.mean()
-        );
-        assert!(d <= noise, "{kernel:?}: {d:.3e} > {noise:.3e}");
-        assert_means_agree(&img, &cpu, &cpu2, &format!("lamps {kernel:?}"));
-    }
+    both_kernels_agree_with_cpu(ctx, &prep, &camera, &s, 5, "lamps");
 }
 
 /// Thin glass panes (issue 25) on the GPU tracer: the small glazed room of `vlf_tests::scenes`
@@ -482,36 +496,7 @@ fn gpu_matches_cpu_in_a_glazed_room() {
         s.height,
     )
     .unwrap();
-    let cpu = render(&prep, &camera, &s, &|_, _| {}).unwrap();
-    let cpu2 = render(
-        &prep,
-        &camera,
-        &RenderSettings {
-            seed: 7,
-            ..s.clone()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    let noise = rel_mse(&cpu2, &cpu);
-    let tracer = GpuPathTracer::new(&ctx.device);
-    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
-        let options = GpuRenderOptions {
-            kernel,
-            ..Default::default()
-        };
-        let (img, _) = tracer
-            .render(ctx, &prep, &camera, &s, &options, &|_, _| {})
-            .unwrap();
-        let d = rel_mse(&img, &cpu);
-        eprintln!(
-            "glazed room {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds: {noise:.3e}); means {:?} vs {:?}",
-            img.mean(),
-            cpu.mean()
-        );
-        assert!(d <= noise, "{kernel:?}: {d:.3e} > {noise:.3e}");
-        assert_means_agree(&img, &cpu, &cpu2, &format!("glazed room {kernel:?}"));
-    }
+    both_kernels_agree_with_cpu(ctx, &prep, &camera, &s, 7, "glazed room");
 }
 
 /// Image sizes that are not multiples of the 8×8 tiles, a sample count with no useful divisor

@@ -16,39 +16,20 @@ pub fn storage_buffer<T: bytemuck::Pod>(
     })
 }
 
-/// Reads `buffer` (which needs `COPY_SRC`) back as a `Vec<T>`, blocking until done.
+/// Reads `buffer` (which needs `COPY_SRC`; its size a multiple of 4) back as a `Vec<T>`,
+/// blocking until done: [`read_buffers`] of that one buffer.
 pub fn read_buffer<T: bytemuck::Pod>(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     buffer: &wgpu::Buffer,
 ) -> Result<Vec<T>, wgpu::BufferAsyncError> {
-    let size = buffer.size();
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("Readback::staging"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+    let encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("Readback::encoder"),
     });
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
-    queue.submit(Some(encoder.finish()));
-    let (tx, rx) = std::sync::mpsc::channel();
-    staging
-        .slice(..)
-        .map_async(wgpu::MapMode::Read, move |r| drop(tx.send(r)));
-    let _ = device.poll(wgpu::PollType::wait_indefinitely());
-    rx.recv().map_err(|_| wgpu::BufferAsyncError)??;
-    let out = {
-        let view = staging
-            .slice(..)
-            .get_mapped_range()
-            .map_err(|_| wgpu::BufferAsyncError)?;
-        bytemuck::cast_slice(&view).to_vec()
-    };
-    staging.unmap();
-    Ok(out)
+    let parts = read_buffers(device, queue, encoder, &[(buffer, buffer.size())])?;
+    Ok(parts
+        .first()
+        .map_or_else(Vec::new, |p| bytemuck::pod_collect_to_vec(p)))
 }
 
 /// Submits `encoder` with copies of every `(buffer, bytes)` of `sources` (each needs
