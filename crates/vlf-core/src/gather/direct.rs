@@ -56,16 +56,7 @@ impl Gatherer<'_> {
             return None;
         }
         if lit_count < guide::CELLS {
-            let g = G as i32;
-            let near = |c: usize| {
-                let (x, y) = ((c as u32 % G) as i32, (c as u32 / G) as i32);
-                [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)]
-                    .iter()
-                    .any(|&(dx, dy)| {
-                        let nx = x + dx;
-                        (0..g).contains(&nx) && lit[((y + dy).rem_euclid(g) * g + nx) as usize]
-                    })
-            };
+            let near = |c: usize| lit[c] || guide::neighbours(c, G).any(|k| lit[k]);
             let refine: Vec<usize> = (0..guide::CELLS).filter(|&c| near(c)).collect();
             let mut more = Vec::with_capacity(refine.len() * 4);
             pts.sample(t, refine.len() as u32 * 4, &mut rng, &mut more);

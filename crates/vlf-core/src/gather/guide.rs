@@ -38,6 +38,20 @@ pub fn cell_in(u: Vec2, g: u32) -> usize {
     (cy * g + cx) as usize
 }
 
+/// The cells next to cell `c` of a `g` × `g` grid (left, right, below, above): u.x = sin²θ
+/// ends at the grid's edges, φ wraps round.
+pub fn neighbours(c: usize, g: u32) -> impl Iterator<Item = usize> {
+    let (x, y, g) = ((c as u32 % g) as i32, (c as u32 / g) as i32, g as i32);
+    [(-1, 0), (1, 0), (0, -1), (0, 1)]
+        .into_iter()
+        .filter_map(move |(dx, dy)| {
+            let nx = x + dx;
+            (0..g)
+                .contains(&nx)
+                .then(|| ((y + dy).rem_euclid(g) * g + nx) as usize)
+        })
+}
+
 /// The square point of unit direction `w` (world) about unit normal `n`: the inverse of
 /// `to_world(cosine_hemisphere(u), n)`.
 pub fn square_of(w: Vec3, n: Vec3) -> Vec2 {
@@ -68,25 +82,12 @@ impl Guide {
     pub fn new(w: &[f32]) -> Option<Guide> {
         let side = (w.len() as f32).sqrt().round() as u32;
         debug_assert_eq!((side * side) as usize, w.len());
-        let g = side as i32;
-        let at = |x: i32, y: i32| -> f32 {
-            if !(0..g).contains(&x) {
-                return 0.0;
-            }
-            w[(y.rem_euclid(g) * g + x) as usize]
-        };
         let mut spread = vec![0.0f32; w.len()];
         let mut total = 0.0f64;
-        for y in 0..g {
-            for x in 0..g {
-                let n = at(x - 1, y)
-                    .max(at(x + 1, y))
-                    .max(at(x, y - 1))
-                    .max(at(x, y + 1));
-                let v = at(x, y).max(0.5 * n);
-                spread[(y * g + x) as usize] = v;
-                total += f64::from(v);
-            }
+        for (c, v) in spread.iter_mut().enumerate() {
+            let n = neighbours(c, side).map(|k| w[k]).fold(0.0f32, f32::max);
+            *v = w[c].max(0.5 * n);
+            total += f64::from(*v);
         }
         if total <= 0.0 || !total.is_finite() {
             return None;
