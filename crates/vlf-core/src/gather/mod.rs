@@ -192,12 +192,14 @@ impl Gatherer<'_> {
             rays: points.len() as u32,
             radiance: Box::new([Vec3::ZERO; guide::CELLS]),
             luminance: Cells::default(),
+            moments: Moments::default(),
         };
         for (k, &q) in points.iter().enumerate() {
             let u = strata.point(k, &mut rng);
             let l = self.gather_ray(q, n, u);
             out.radiance[guide::cell_of(u)] += l;
             out.luminance.add(u, luminance(l));
+            out.moments.add(luminance(l) * std::f32::consts::PI);
         }
         Some(out)
     }
@@ -287,23 +289,47 @@ impl Gatherer<'_> {
         IndirectTexel {
             e,
             variance: moments.variance_of_mean(),
+            rays: n_a + n_b,
         }
     }
 }
 
 /// The first pass of the guided indirect estimator at one texel: its rays, their radiance and
 /// luminance per cell.
-struct FirstPass {
+pub(super) struct FirstPass {
     rays: u32,
     radiance: Box<[Vec3; guide::CELLS]>,
     luminance: Cells,
+    /// Of each ray's irradiance estimate (luminance × π: cosine rays).
+    moments: Moments,
 }
 
-/// A texel of the indirect grid: its irradiance and the variance of that estimate
-/// (luminance).
+impl FirstPass {
+    /// Whether the first pass alone will do: the standard error of its mean is at most `error`
+    /// and the mean at least `expected` (a first pass that missed what the field sees there,
+    /// a bright patch its few rays did not hit, says nothing of its error).
+    fn enough(&self, error: f32, expected: f32) -> bool {
+        let mean = (self.moments.sum / f64::from(self.moments.n.max(1))) as f32;
+        error > 0.0 && self.moments.variance_of_mean().sqrt() <= error && mean >= expected
+    }
+
+    /// The first pass alone as the texel's estimate (its cosine rays' mean).
+    fn alone(&self) -> IndirectTexel {
+        let sum: Vec3 = self.radiance.iter().copied().sum();
+        IndirectTexel {
+            e: sum * (std::f32::consts::PI / self.rays as f32),
+            variance: self.moments.variance_of_mean(),
+            rays: self.rays,
+        }
+    }
+}
+
+/// A texel of the indirect grid: its irradiance, the variance of that estimate (luminance)
+/// and the rays it took.
 struct IndirectTexel {
     e: Vec3,
     variance: f32,
+    rays: u32,
 }
 
 /// A texel of the stored atlas: its direct irradiance, the variance of that estimate

@@ -9,8 +9,8 @@ use serde::Serialize;
 use super::field::{Field, Quad, Tiles, chart_bilinear};
 use super::guide::{Cells, Guide, SkyMask};
 use super::{
-    CHUNK, Converged, DirectTexel, GatherError, Gathered, Gatherer, Grid, Grids, IndirectTexel,
-    TexelPoints, assemble, denoise, luminance,
+    CHUNK, Converged, DirectTexel, FirstPass, GatherError, Gathered, Gatherer, Grid, Grids,
+    IndirectTexel, TexelPoints, assemble, denoise, luminance,
 };
 use crate::lightfield::{Denoiser, GatherParams};
 use crate::pathtrace::PreparedScene;
@@ -118,8 +118,28 @@ pub(super) fn final_gather_sampled(
         crate::bake::dilate_where(&fine.atlas, &mut e, &filled);
         g.field.direct = Some((&fine.atlas, e));
     }
-    // 4. Indirect light.
-    let ind = indirect_guided(&g, coarse, &coarse_pts, gp.indirect_rays, threads);
+    // 4. Indirect light. Under adaptive sampling a texel keeps its first pass alone where
+    // that is already within the target of the texel's whole light (the field's, direct
+    // included) and agrees with what the field predicts for it (the light after the first
+    // bounce): open ground under a sky, whose indirect light is a sliver of its sky light.
+    // Only under a sky, whose open ground it is for: on the Cornell box the rule kept the first
+    // pass alone on 1 % of the texels, and relMSE went 2.94e-4 → 3.02e-4.
+    let adaptive =
+        s.max_rounds > 1 && s.target_error > 0.0 && later.is_some() && field.sky != Vec3::ZERO;
+    let enough = |t: usize, first: &FirstPass| {
+        if !adaptive {
+            return false;
+        }
+        let fi = coarse.tex_face[t] as usize;
+        let f = &coarse.atlas.faces[fi];
+        let side = (t as u32 - f.texel_base) / f.texels_per_side();
+        let p = Vec4::from(coarse.atlas.texel_center[t]).truncate();
+        let face = &field.prep.faces[fi];
+        let total = luminance(chart_bilinear(face, field.irradiance, side, p));
+        let predicted = luminance(chart_bilinear(face, &g.field.irradiance, side, p));
+        first.enough(0.25 * s.target_error * total, 0.5 * predicted)
+    };
+    let ind = indirect_guided(&g, coarse, &coarse_pts, gp.indirect_rays, enough, threads);
     drop(g);
     let var_ind: Vec<[f32; 4]> = ind
         .iter()
@@ -139,7 +159,7 @@ pub(super) fn final_gather_sampled(
     let dir_e: Vec<Option<Vec3>> = dir.iter().map(|d| d.as_ref().map(|d| d.e)).collect();
     let fine_texel = grids.direct.texel_size;
     let mut gathered = assemble(ps, field, grids, &ind_e, &dir_e, threads);
-    gathered.stats.sampling = Some(SamplingStats::of(&dir, &var, &gathered.irradiance));
+    gathered.stats.sampling = Some(SamplingStats::of(&dir, &ind, &var, &gathered.irradiance));
     let filled: Vec<bool> = dir.iter().map(Option::is_some).collect();
     let t0 = std::time::Instant::now();
     match gp.denoise {
@@ -182,6 +202,7 @@ fn indirect_guided(
     grid: &Grid,
     pts: &TexelPoints,
     rays: u32,
+    enough: impl Fn(usize, &FirstPass) -> bool + Sync,
     threads: usize,
 ) -> Vec<Option<IndirectTexel>> {
     let atlas = &grid.atlas;
@@ -190,6 +211,9 @@ fn indirect_guided(
     });
     crate::par::map(atlas.texel_count(), threads, CHUNK, |t| {
         let own = first[t].as_ref()?;
+        if enough(t, own) {
+            return Some(own.alone());
+        }
         let f = &atlas.faces[grid.tex_face[t] as usize];
         let local = t as u32 - f.texel_base;
         let (i, j) = (local % f.width, local % f.texels_per_side() / f.width);
@@ -243,13 +267,20 @@ impl Distribution {
 pub struct SamplingStats {
     pub texels: usize,
     pub rays_per_texel: Distribution,
+    /// Gather rays per texel of the indirect grid (its open texels).
+    pub indirect_rays_per_texel: Distribution,
     pub relative_error: Distribution,
     /// Share of the texels that stopped before their last allowed round.
     pub converged_share: f64,
 }
 
 impl SamplingStats {
-    fn of(dir: &[Option<DirectTexel>], var: &[f32], irradiance: &[[f32; 4]]) -> SamplingStats {
+    fn of(
+        dir: &[Option<DirectTexel>],
+        ind: &[Option<IndirectTexel>],
+        var: &[f32],
+        irradiance: &[[f32; 4]],
+    ) -> SamplingStats {
         let open: Vec<(usize, &DirectTexel)> = dir
             .iter()
             .enumerate()
@@ -259,6 +290,9 @@ impl SamplingStats {
         SamplingStats {
             texels: open.len(),
             rays_per_texel: Distribution::of(open.iter().map(|(_, d)| f64::from(d.rays)).collect()),
+            indirect_rays_per_texel: Distribution::of(
+                ind.iter().flatten().map(|e| f64::from(e.rays)).collect(),
+            ),
             relative_error: Distribution::of(
                 open.iter()
                     .map(|(t, _)| {
