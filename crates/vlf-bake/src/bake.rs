@@ -37,14 +37,17 @@ pub fn resolve_params(
     a: &BakeArgs,
     scene: &vlf_core::scene::Scene,
 ) -> anyhow::Result<(BakeParams, Vec<String>)> {
-    let report = bake::refine::refine(scene, quality(a), final_gather(a));
+    // The sky the scene will be lit by: the scene rules refine for it.
+    let no_sky = a
+        .sky
+        .is_none_or(|s| glam::Vec3::from(s.0) == glam::Vec3::ZERO);
+    let unlit_sky = a.sky_if_unlit.filter(|_| no_sky && !scene.has_lights());
+    let sky = unlit_sky.or(a.sky).map_or(glam::Vec3::ZERO, |s| s.0.into());
+    let report = bake::refine::refine_under_sky(scene, quality(a), final_gather(a), sky);
     let mut p = report.params;
     let mut reasons = report.reasons;
     apply_explicit(a, &mut p);
-    if let Some(sky) = a.sky_if_unlit
-        && p.sky == glam::Vec3::ZERO
-        && !scene.has_lights()
-    {
+    if let Some(sky) = unlit_sky {
         p.sky = glam::Vec3::from(sky.0);
         let msg = format!(
             "no emitter, sun or lamp: lit by a sky of radiance {:?} (--sky-if-unlit)",

@@ -97,3 +97,31 @@ fn presets_grow_monotonically() {
         assert!(d.resolution <= a.resolution && a.resolution <= h.resolution);
     }
 }
+
+#[test]
+fn rooms_lit_by_a_sky_through_openings_get_twice_the_rays() {
+    // window-room: a 6 m room in 84 m of ground (visibility distance 0.066 < 0.1). Without a
+    // sky the visibility rule's 256; under one the rays double to the preset's 512 for rooms
+    // lit by a sky (docs/QUALITY.md), and the gather's grids follow the ray spacing.
+    for rel in [
+        "window-room/window-room.glb",
+        "window-room-glazed/window-room-glazed.glb",
+    ] {
+        let scene = vlf_core::scene::load(&shared(rel)).unwrap();
+        let plain = refine::refine(&scene, Quality::Auto, true);
+        let lit = refine::refine_under_sky(&scene, Quality::Auto, true, glam::Vec3::ONE);
+        assert_eq!(plain.params.resolution, 256, "{rel}: {:#?}", plain.reasons);
+        assert_eq!(lit.params.resolution, 512, "{rel}: {:#?}", lit.reasons);
+        assert_eq!(lit.params.sky, glam::Vec3::ONE);
+        assert!(lit.reasons.iter().any(|x| x.contains("lit by the sky")));
+        // Without the gather (not measured there) and at draft (its most is 64) nothing moves.
+        let alone = refine::refine_under_sky(&scene, Quality::Auto, false, glam::Vec3::ONE);
+        assert_eq!(alone.params.resolution, 256, "{rel}");
+        let draft = refine::refine_under_sky(&scene, Quality::Draft, true, glam::Vec3::ONE);
+        assert_eq!(draft.params.resolution, 64, "{rel}");
+    }
+    // The Cornell box under a sky (visibility distance 0.632) keeps its rays.
+    let scene = vlf_core::scene::load(&shared("cornell-box/cornell.gltf")).unwrap();
+    let lit = refine::refine_under_sky(&scene, Quality::Auto, true, glam::Vec3::ONE);
+    assert_eq!(lit.params.resolution, 64);
+}

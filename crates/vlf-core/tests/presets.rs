@@ -136,12 +136,13 @@ fn presets_markdown() -> String {
     for q in Quality::ALL {
         let p = q.preset();
         s += &format!(
-            "| {} | {} / {} | {}–{} | {} | {}×{} rays | {:e} of emitted | {} | {} |\n",
+            "| {} | {} / {} | {}–{} (rooms lit by a sky: up to {}) | {} | {}×{} rays | {:e} of emitted | {} | {} |\n",
             q.name(),
             set_len(p.gather_directions),
             set_len(p.directions),
             p.resolution.0,
             p.resolution.1,
+            p.sky_interior_rays,
             p.tile,
             p.texel_scale,
             p.texel_scale,

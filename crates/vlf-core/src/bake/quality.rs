@@ -36,6 +36,9 @@ pub struct Preset {
     /// Rays per PSF side: the least and most the scene rules choose (powers of two); a bake
     /// starts from the least.
     pub resolution: (u32, u32),
+    /// Most rays per side for rooms lit by a sky through their openings (the scene rules
+    /// double the rays there, up to this; `super::refine`).
+    pub sky_interior_rays: u32,
     /// Cells per tile side before the scene rules choose one from the triangle density (kept
     /// when the scene cannot be probed).
     pub tile: u32,
@@ -91,6 +94,7 @@ impl Preset {
         directions: 126,
         gather_directions: 126,
         resolution: (32, 64),
+        sky_interior_rays: 64,
         tile: 8,
         texel_scale: 2.0,
         threshold: 1e-2,
@@ -116,6 +120,7 @@ impl Preset {
         directions: 512,
         gather_directions: 246,
         resolution: (64, 256),
+        sky_interior_rays: 512,
         tile: 8,
         texel_scale: 2.0,
         threshold: 1e-3,
@@ -141,6 +146,7 @@ impl Preset {
         directions: 2048,
         gather_directions: 606,
         resolution: (128, 512),
+        sky_interior_rays: 512,
         tile: 16,
         texel_scale: 2.0,
         threshold: 1e-4,
