@@ -95,6 +95,8 @@ impl FileInfo {
             | disk::SECTION_TEXELS
             | disk::SECTION_SURFACES
             | disk::SECTION_TEXTURE_ALPHA => Some(s.byte_len),
+            // Read into the bake parameters (`GatherParams`), not kept as data.
+            disk::SECTION_GATHER_SAMPLING => Some(0),
             _ => None,
         };
         let sections: Vec<SectionInfo> = h
@@ -264,12 +266,12 @@ impl fmt::Display for FileInfo {
         )?;
         writeln!(
             f,
-            "  sections      name        count         file       memory"
+            "  sections      name                 count         file       memory"
         )?;
         for s in &self.sections {
             writeln!(
                 f,
-                "                {:<10} {:>6} {:>12} {:>12}{}",
+                "                {:<15} {:>10} {:>12} {:>12}{}",
                 s.name,
                 s.count,
                 human(s.file_bytes),
