@@ -275,16 +275,15 @@ pub struct MemoryReport {
     pub plan: memory::MemoryPlan,
 }
 
-/// The final gather's parameters when a bake on a GPU device gathers there (`vlf_gpu::gather`):
-/// it samples fixed counts only, so guided or adaptive sampling and the denoiser gather on the
-/// CPU, and so do translucent scenes, which propagate on the CPU.
+/// The final gather's parameters when a bake on a GPU device gathers there
+/// ([`vlf_gpu::gather::implements`]).
 fn gpu_gather(
     scene: &vlf_core::scene::Scene,
     params: &BakeParams,
 ) -> Option<vlf_core::lightfield::GatherParams> {
     params
         .final_gather
-        .filter(|g| g.sampling.is_fixed() && !g.denoise.is_on() && !scene.has_translucency())
+        .filter(|g| vlf_gpu::gather::implements(scene, g))
 }
 
 /// The final gather (on the GPU with a device: `vlf_gpu::gather`, tested against the CPU

@@ -472,6 +472,17 @@ fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
         r["gather"]["device"], "cpu",
         "guided sampling gathers on the CPU"
     );
+    // ... so its plan holds no GPU gather buffers.
+    let planned_gather = |r: &serde_json::Value| {
+        r["memory"]["plan"]["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|i| i["name"].as_str().unwrap().starts_with("final gather: "))
+            .cloned()
+            .collect::<Vec<_>>()
+    };
+    assert!(planned_gather(&r).is_empty(), "{:?}", planned_gather(&r));
     args.extend(["--gather-sampling", "fixed", "--denoise", "off"]);
     let o = run(&args);
     assert_eq!(code(&o), 0, "{}", text(&o.stderr));
@@ -485,11 +496,7 @@ fn gpu_bake_gathers_on_the_gpu_and_plans_its_buffers() {
             .unwrap()
             >= 256
     );
-    let items = r["memory"]["plan"]["items"].as_array().unwrap();
-    let gather: Vec<_> = items
-        .iter()
-        .filter(|i| i["name"].as_str().unwrap().starts_with("final gather: "))
-        .collect();
+    let gather = planned_gather(&r);
     assert!(
         gather
             .iter()

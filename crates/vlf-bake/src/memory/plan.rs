@@ -444,7 +444,12 @@ pub fn plan_prepared(
     if let Some(plan) = &c.gpu_plan {
         items.extend(gpu_host_items(plan, &c, x, tris, tiles2, file));
         items.extend(gpu_items(plan));
-        if let Some(gp) = &params.final_gather {
+        // The GPU gather's buffers only where it runs: otherwise the bake gathers on the CPU.
+        if let Some(gp) = params
+            .final_gather
+            .as_ref()
+            .filter(|g| vlf_gpu::gather::implements(scene, g))
+        {
             items.extend(gather_items(
                 scene,
                 prep,

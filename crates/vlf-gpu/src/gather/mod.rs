@@ -329,6 +329,14 @@ pub struct Step {
     pub side: u32,
 }
 
+/// Whether this GPU gather implements the final gather `gp` of `scene`: it samples fixed counts
+/// only, so guided or adaptive sampling and the atlas denoiser gather on the CPU, and so do
+/// translucent scenes, which propagate on the CPU. A bake gathers here, and plans this gather's
+/// buffers, only then.
+pub fn implements(scene: &Scene, gp: &GatherParams) -> bool {
+    gp.sampling.is_fixed() && !gp.denoise.is_on() && !scene.has_translucency()
+}
+
 /// The steps of one grid's estimator, in order, with `options`' batches.
 pub fn steps(est: &Estimator, options: &GatherOptions) -> Vec<Step> {
     let one = |entry, side| Step {
