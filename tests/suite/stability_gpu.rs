@@ -1,5 +1,5 @@
 //! The stability suite on the GPU (issue 8): the important cases of
-//! `crates/vlf-core/tests/stability.rs` baked by the GPU propagator, which must equal the CPU
+//! `crates/vlf-core/tests/core/stability.rs` baked by the GPU propagator, which must equal the CPU
 //! reference (area-weighted mean relative difference < 1e-3) and keep its exact properties (a
 //! wall passes exactly nothing, bakes are bit-reproducible). The physics bounds themselves are
 //! asserted on the CPU; the scenes are rebuilt here (the two test crates share no code).

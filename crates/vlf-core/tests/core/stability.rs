@@ -5,7 +5,7 @@
 //! The bakes are deterministic (no float atomics, fixed seeds), so the margins only have to
 //! absorb f32 differences between platforms and deliberate changes to the propagator.
 //! `docs/STABILITY.md` quotes the numbers printed here
-//! (`cargo test -p vlf-core --test stability -- --nocapture`); the GPU runs the important cases
+//! (`cargo test -p vlf-core --test core stability:: -- --nocapture`); the GPU runs the important cases
 //! in `tests/suite/stability_gpu.rs`.
 
 use std::collections::HashMap;
@@ -952,7 +952,7 @@ fn the_atlas_denoiser_leaks_nothing_across_a_contact_or_a_thin_wall() {
 }
 
 /// The same with Intel Open Image Denoise's lightmap filter (`--denoise oidn`): builds with the
-/// feature only (`cargo test -p vlf-core --features oidn --test stability oidn -- --nocapture`,
+/// feature only (`cargo test -p vlf-core --features oidn --test core stability::oidn -- --nocapture`,
 /// with OIDN_DIR and the library's path set, docs/GATHER.md); CI does not build it. OIDN sees
 /// each chart's neighbours in its image (beyond the padding), so charts that are black without
 /// it (the closed box's inside, the split room's dark half) receive light, and on a floor that

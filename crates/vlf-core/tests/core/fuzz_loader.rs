@@ -11,7 +11,7 @@
 //! test; the offending input is saved and its path printed.
 //!
 //! Run time: `VLF_FUZZ_SECONDS` (default 3 s). Seed: `VLF_FUZZ_SEED` (default fixed).
-//! `VLF_FUZZ_SECONDS=60 cargo test -p vlf-core --test fuzz_loader -- --nocapture`
+//! `VLF_FUZZ_SECONDS=60 cargo test -p vlf-core --test core fuzz_loader:: -- --nocapture`
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -686,7 +686,7 @@ fn fuzz_loader() {
     );
 }
 
-/// Replays saved crash inputs: `VLF_FUZZ_REPLAY=path cargo test --test fuzz_loader replay`.
+/// Replays saved crash inputs: `VLF_FUZZ_REPLAY=path cargo test --test core fuzz_loader::replay`.
 #[test]
 fn replay() {
     let Ok(path) = std::env::var("VLF_FUZZ_REPLAY") else {

@@ -2,11 +2,8 @@
 //! removes half its area in fine stripes passes half the light of an emitter behind it (the
 //! propagation, the final gather and the path tracer).
 
-#[path = "../../../tests/src/scenes.rs"]
-mod scenes;
-
+use crate::scenes::{self, central_mean, receiver, striped_screen};
 use glam::Vec3;
-use scenes::{central_mean, receiver, striped_screen};
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
