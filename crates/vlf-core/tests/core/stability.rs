@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
+use crate::common::base64;
 use glam::{DVec3, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::Quality;
@@ -1375,25 +1376,6 @@ fn needle_triangles_bake_without_cracks() {
     assert_eq!(missed, 0);
     assert_eq!(dark, 0.0);
     assert_balanced(&out, "needles");
-}
-
-/// Standard base64 (for a glTF data URI).
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                A[((n >> (18 - 6 * i)) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    s
 }
 
 /// Writes a glTF with one mesh: primitive k uses `indices[k]` and material k, where material k
