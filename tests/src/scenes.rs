@@ -1,5 +1,6 @@
 //! Test scenes shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::scenes`): surfaces that let light through.
+//! suite (`vlf_tests::scenes`): the rectangles and materials scenes are built from, and
+//! surfaces that let light through.
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
@@ -7,6 +8,61 @@ use vlf_core::scene::{
     AlphaMode, FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture,
     Transparency, WrapMode,
 };
+
+/// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
+pub fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
+    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
+}
+
+/// Horizontal rectangle `[x0, x1] × [z0, z1]` at height `y`, facing up or down.
+pub fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
+    let o = Vec3::new(x.0, y, z.0);
+    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
+    if up {
+        rect(b, o, ez, ex, m);
+    } else {
+        rect(b, o, ex, ez, m);
+    }
+}
+
+/// Horizontal quad at height y spanning [-s, s]², facing up (`up`) or down.
+pub fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
+    let mut q = [
+        Vec3::new(-s, y, -s),
+        Vec3::new(-s, y, s),
+        Vec3::new(s, y, s),
+        Vec3::new(s, y, -s),
+    ];
+    if !up {
+        q.reverse();
+    }
+    b.quad(q, m);
+}
+
+/// A white GGX metal named `name` of roughness α (reflectance 1, double-sided).
+pub fn metal(b: &mut SceneBuilder, name: &str, alpha: f32) -> u32 {
+    b.material(Material {
+        name: name.into(),
+        base_color: Vec3::ONE,
+        base_color_texture: None,
+        emission: Vec3::ZERO,
+        emissive_texture: None,
+        double_sided: true,
+        kind: MaterialKind::Mirror,
+        metallic: 1.0,
+        roughness: alpha.sqrt(),
+        transparency: Default::default(),
+    })
+}
+
+/// A horizontal white GGX metal square of roughness α at y = 0 over [-1, 1]² (the scene's
+/// only face).
+pub fn metal_plane(alpha: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = metal(&mut b, &format!("metal α {alpha}"), alpha);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    b.build("metal plane")
+}
 
 /// Stripes across the screen: texture periods over its width (each period one opaque and one
 /// transparent texel, NEAREST). The stripes are 3/93.4 = 0.032 units wide, 0.015 in VLF units:

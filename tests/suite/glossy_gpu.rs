@@ -9,35 +9,9 @@ use vlf_core::directions::DirectionSet;
 use vlf_core::gather::field::Tiles;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::material::GgxAlbedo;
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder, Sun};
+use vlf_core::scene::{Material, MaterialKind, SceneBuilder, Sun};
+use vlf_tests::scenes::metal_plane;
 use vlf_tests::{gpu, repo_dir};
-
-/// A horizontal white GGX metal square of roughness α at y = 0.
-fn plane(alpha: f32) -> Scene {
-    let mut b = SceneBuilder::new();
-    let m = b.material(Material {
-        name: format!("metal α {alpha}"),
-        base_color: Vec3::ONE,
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: alpha.sqrt(),
-        transparency: Default::default(),
-    });
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    b.build("metal plane")
-}
 
 fn bits(v: &[[f32; 4]]) -> Vec<[u32; 4]> {
     v.iter().map(|x| x.map(f32::to_bits)).collect()
@@ -91,7 +65,7 @@ fn gpu_glossy_furnace() {
     };
     let sky = Vec3::new(1.0, 0.5, 0.25);
     for alpha in [0.05f32, 0.2, 0.5] {
-        let scene = plane(alpha);
+        let scene = metal_plane(alpha);
         let params = BakeParams {
             directions: 246,
             resolution: 32,

@@ -11,6 +11,7 @@ use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
 use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
+use vlf_tests::scenes::hquad;
 use vlf_tests::{gpu, shared_dir, window_frame};
 
 const W: u32 = 64;
@@ -25,20 +26,6 @@ fn small_params(sky: Vec3) -> BakeParams {
         sky,
         ..BakeParams::paper()
     }
-}
-
-/// Horizontal quad at height y spanning [-s, s]², facing up or down.
-fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
-    let mut q = [
-        Vec3::new(-s, y, -s),
-        Vec3::new(-s, y, s),
-        Vec3::new(s, y, s),
-        Vec3::new(s, y, -s),
-    ];
-    if !up {
-        q.reverse();
-    }
-    b.quad(q, m);
 }
 
 /// A mirror of reflectance `rho` (material 0, roughness 0) facing up over [-1, 1]² at y = 0.

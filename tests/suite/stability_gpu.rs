@@ -10,17 +10,9 @@ use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
+use vlf_tests::bakes::params;
 use vlf_tests::gpu;
-
-fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
+use vlf_tests::scenes::{hrect, rect};
 
 /// CPU and GPU bakes of `scene`, or `None` when there is no GPU (and it is not required).
 fn both(scene: &Scene, params: &BakeParams) -> Option<(BakeScene, Propagated, Propagated)> {
@@ -88,20 +80,6 @@ fn assert_gpu_matches(what: &str, prep: &BakeScene, cpu: &Propagated, gpu: &Prop
             rel(ec.escaped, eg.escaped) < 1e-3,
             "{what}: {ec:?} vs {eg:?}"
         );
-    }
-}
-
-fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
-    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
-}
-
-fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
-    let o = Vec3::new(x.0, y, z.0);
-    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
-    if up {
-        rect(b, o, ez, ex, m);
-    } else {
-        rect(b, o, ex, ez, m);
     }
 }
 

@@ -12,7 +12,9 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
+use crate::bakes::params;
 use crate::common::base64;
+use crate::scenes::{hrect, rect};
 use glam::{DVec3, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::Quality;
@@ -29,16 +31,6 @@ use vlf_core::scene::{Scene, SceneBuilder};
 const ENERGY_BOUND: f64 = 0.01;
 
 // ----- helpers ------------------------------------------------------------------------------
-
-fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
 
 /// A propagation and its texels' outgoing radiance (`BakeScene::outgoing_radiance` of its
 /// irradiance: emission + ρE/π), which most checks here are about.
@@ -104,22 +96,6 @@ impl Timer {
 impl Drop for Timer {
     fn drop(&mut self) {
         eprintln!("[{}: {:.2} s]", self.0, self.1.elapsed().as_secs_f64());
-    }
-}
-
-/// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
-fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
-    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
-}
-
-/// Horizontal rectangle `[x0, x1] × [z0, z1]` at height `y`, facing up or down.
-fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
-    let o = Vec3::new(x.0, y, z.0);
-    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
-    if up {
-        rect(b, o, ez, ex, m);
-    } else {
-        rect(b, o, ex, ez, m);
     }
 }
 
