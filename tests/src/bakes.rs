@@ -22,6 +22,21 @@ pub fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeP
     }
 }
 
+/// The propagation the final-gather tests read: 126 directions, 32² rays, tile 4, texels of one
+/// ray spacing, no perturbation, `iterations` under `sky`.
+pub fn under_gather(sky: Vec3, iterations: Iterations) -> BakeParams {
+    BakeParams {
+        directions: 126,
+        resolution: 32,
+        tile: 4,
+        texel_scale: 1.0,
+        iterations,
+        sky,
+        perturb: 0,
+        ..BakeParams::paper()
+    }
+}
+
 /// Prepares `scene` at `params` and propagates it on the CPU (all threads).
 pub fn propagate(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet, Propagated) {
     let prep = BakeScene::new(scene, params).unwrap();

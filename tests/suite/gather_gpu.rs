@@ -9,57 +9,33 @@
 //! on how the texels are split into chunks nor the samples into steps.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeScene, Quality, reference};
-use vlf_core::directions::DirectionSet;
+use vlf_core::bake::Quality;
 use vlf_core::gather::{Converged, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
+use vlf_core::lightfield::{GatherParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
 use vlf_gpu::GpuContext;
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
+use vlf_tests::bakes::{Propagation, under_gather};
 use vlf_tests::{gpu, repo_dir};
 
 /// A propagated field at small settings (CPU reference propagation).
 pub(crate) struct Field {
-    prep: BakeScene,
-    set: DirectionSet,
-    irradiance: Vec<[f32; 4]>,
-    tiles: Option<(vlf_core::lightfield::TileIndex, Vec<[f32; 4]>)>,
+    prop: Propagation,
     sky: Vec3,
 }
 
 impl Field {
     pub(crate) fn new(scene: &Scene, sky: Vec3) -> Field {
-        let params = BakeParams {
-            directions: 126,
-            resolution: 32,
-            tile: 4,
-            texel_scale: 1.0,
-            iterations: Iterations::Fixed(4),
-            sky,
-            perturb: 0,
-            ..BakeParams::paper()
-        };
-        let prep = BakeScene::new(scene, &params).unwrap();
-        let set = DirectionSet::at_least(params.directions).unwrap();
-        let prop = reference::propagate(&prep, &set, &params);
-        Field {
-            prep,
-            set,
-            irradiance: prop.irradiance,
-            tiles: prop.tiles,
-            sky,
-        }
+        let prop = Propagation::new(scene, &under_gather(sky, Iterations::Fixed(4)));
+        Field { prop, sky }
     }
 
+    /// The field without its first bounce, at the ray spacing of 32² rays over the VLF's
+    /// 2-unit cube.
     pub(crate) fn converged(&self) -> Converged<'_> {
         Converged {
-            prep: &self.prep,
-            irradiance: &self.irradiance,
             first_bounce: None,
-            tiles: self.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &self.set,
-            sky: self.sky,
-            ray_spacing: 2.0 / 32.0,
+            ..self.prop.converged(self.sky, 2.0 / 32.0)
         }
     }
 }

@@ -9,8 +9,6 @@
 //! analytically under a uniform sky.
 
 use glam::{Vec2, Vec3, Vec4};
-use vlf_core::bake::{BakeScene, reference};
-use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
 use vlf_core::image::rel_mse;
 use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, GatherParams, Iterations, Sampling};
@@ -24,6 +22,7 @@ use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace;
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes::Propagation;
 use vlf_tests::{gpu, window_frame};
 
 /// A 2 × 2 texture of four colours.
@@ -153,17 +152,10 @@ fn gpu_gather_matches_cpu_with_shading_normals_colours_and_uv1() {
     let Some(ctx) = gpu() else { return };
     let scene = attribute_scene();
     let params = small_params(SKY);
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let prop = reference::propagate(&prep, &set, &params);
+    let prop = Propagation::new(&scene, &params);
     let field = Converged {
-        prep: &prep,
-        irradiance: &prop.irradiance,
         first_bounce: None,
-        tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-        directions: &set,
-        sky: SKY,
-        ray_spacing: 2.0 / 32.0,
+        ..prop.converged(SKY, 2.0 / 32.0)
     };
     let gp = GatherParams {
         texel_scale: 1.0,

@@ -15,6 +15,7 @@ use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes::Propagation;
 use vlf_tests::scenes::{central_mean, pane_over_floor, receiver, striped_screen};
 use vlf_tests::{gpu, window_frame};
 
@@ -363,17 +364,10 @@ fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
             iterations: Iterations::Fixed(1),
             ..params()
         };
-        let prep = BakeScene::new(scene, &p).unwrap();
-        let set = DirectionSet::at_least(p.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &p);
+        let out = Propagation::new(scene, &p);
         let field = Converged {
-            prep: &prep,
-            irradiance: &out.irradiance,
             first_bounce: None,
-            tiles: out.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &set,
-            sky,
-            ray_spacing: 2.0 / p.resolution as f32,
+            ..out.converged(sky, 2.0 / p.resolution as f32)
         };
         let g = gather::final_gather_with(
             ctx,

@@ -2,6 +2,7 @@
 //! removes half its area in fine stripes passes half the light of an emitter behind it (the
 //! propagation, the final gather and the path tracer).
 
+use crate::bakes::Propagation;
 use crate::scenes::{self, central_mean, receiver, striped_screen};
 use glam::Vec3;
 use vlf_core::bake::{BakeScene, reference};
@@ -278,17 +279,10 @@ fn a_pane_passes_t_of_theta_in_the_final_gather() {
     };
     let gathered = |scene: &Scene, sky: Vec3| {
         let p = BakeParams { sky, ..params() };
-        let prep = BakeScene::new(scene, &p).unwrap();
-        let set = DirectionSet::at_least(p.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &p);
+        let out = Propagation::new(scene, &p);
         let field = Converged {
-            prep: &prep,
-            irradiance: &out.irradiance,
             first_bounce: None,
-            tiles: out.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &set,
-            sky,
-            ray_spacing: 2.0 / p.resolution as f32,
+            ..out.converged(sky, 2.0 / p.resolution as f32)
         };
         let g = final_gather(scene, &field, &gp, 0).unwrap();
         central_mean(scene, &g.atlas, &g.irradiance, receiver(scene), 0.25)
