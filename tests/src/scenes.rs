@@ -64,6 +64,27 @@ pub fn metal_plane(alpha: f32) -> Scene {
     b.build("metal plane")
 }
 
+/// pbrt-v4's furnace: a closed 2 × 1.4 × 0.8 box facing in, emitting `le` with albedo `rho`.
+pub fn furnace_box(le: Vec3, rho: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("furnace", Vec3::splat(rho), le);
+    b.aabox(
+        Vec3::new(-1.0, -0.7, -0.4),
+        Vec3::new(1.0, 0.7, 0.4),
+        true,
+        m,
+    );
+    b.build("furnace box")
+}
+
+/// A lone grey square of albedo `rho` at y = 0 over [-1, 1]², facing up.
+pub fn sky_plane(rho: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    b.build("sky plane")
+}
+
 /// Stripes across the screen: texture periods over its width (each period one opaque and one
 /// transparent texel, NEAREST). The stripes are 3/93.4 = 0.032 units wide, 0.015 in VLF units:
 /// under half the ray spacing of the bakes below.
@@ -329,6 +350,33 @@ pub fn glazed_room_lights(scene: &mut Scene) {
         intensity: Vec3::new(1.0, 0.9, 0.8),
         range: None,
     });
+}
+
+/// The checks of a final gather through a pane, `gathered(scene, sky)` being the gathered
+/// irradiance at the centre of the receiver: under a sky of radiance 1, `pane_over_floor(true,
+/// 0.02)` receives [`pane_sky_irradiance`] within 1 %; under a sun at 45° (no sky), the pane
+/// passes T(45°) of what the floor receives without it, within 1 %. `what` names the gather in
+/// the printed figures.
+pub fn check_pane_gather(what: &str, mut gathered: impl FnMut(&Scene, Vec3) -> f32) {
+    let scene = pane_over_floor(true, 0.02);
+    let got = gathered(&scene, Vec3::ONE);
+    let want = pane_sky_irradiance(0.02) as f32;
+    eprintln!("{what}, sky through a pane: {got:.4} vs {want:.4}");
+    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
+    let th = 45f32.to_radians();
+    let mut e = Vec::new();
+    for pane in [false, true] {
+        let mut scene = pane_over_floor(pane, 0.02);
+        scene.suns.push(vlf_core::scene::Sun {
+            name: None,
+            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
+            irradiance: Vec3::ONE,
+        });
+        e.push(gathered(&scene, Vec3::ZERO));
+    }
+    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
+    eprintln!("{what}, sun at 45°: {:.4} vs T {want:.4}", e[1] / e[0]);
+    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
 }
 
 /// The irradiance at the centre of `pane_over_floor(true, height)`'s receiver under a sky of

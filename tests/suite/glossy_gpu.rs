@@ -10,6 +10,7 @@ use vlf_core::gather::field::Tiles;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::material::GgxAlbedo;
 use vlf_core::scene::{Material, MaterialKind, SceneBuilder, Sun};
+use vlf_tests::bakes;
 use vlf_tests::scenes::metal_plane;
 use vlf_tests::{gpu, repo_dir};
 
@@ -129,13 +130,7 @@ fn gpu_matches_cpu_reference_on_glossy_cornell_box() {
         direction: Vec3::new(0.3, -1.0, -0.4).normalize(),
         irradiance: Vec3::splat(2.0),
     });
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let mut prep = BakeScene::new(&scene, &params).unwrap();
     for m in &mut prep.lobes {
         if m.alpha() > 0.0 {
@@ -212,13 +207,7 @@ fn gpu_matches_cpu_reference_on_sub_cell_mirrors() {
         );
     }
     let scene = b.build("sub-cell mirrors in a room");
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let grid = vlf_core::psf::PsfGrid::new(params.resolution, params.tile).unwrap();

@@ -11,6 +11,7 @@ use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
 use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
+use vlf_tests::bakes;
 use vlf_tests::scenes::hquad;
 use vlf_tests::{gpu, shared_dir, window_frame};
 
@@ -19,12 +20,8 @@ const H: u32 = 64;
 
 fn small_params(sky: Vec3) -> BakeParams {
     BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
         sky,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     }
 }
 

@@ -22,6 +22,7 @@ use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace;
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
 use vlf_tests::bakes::Propagation;
 use vlf_tests::{gpu, window_frame};
 
@@ -131,15 +132,11 @@ const SKY: Vec3 = Vec3::new(0.2, 0.2, 0.3);
 
 fn small_params(sky: Vec3) -> BakeParams {
     BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
         texel_scale: 1.0,
-        iterations: Iterations::Fixed(3),
         sky,
         perturb: 0,
         final_gather: None,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(3))
     }
 }
 

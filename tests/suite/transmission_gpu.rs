@@ -15,19 +15,16 @@ use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
 use vlf_tests::bakes::Propagation;
 use vlf_tests::scenes::{central_mean, pane_over_floor, receiver, striped_screen};
 use vlf_tests::{gpu, window_frame};
 
 fn params() -> BakeParams {
     BakeParams {
-        directions: 126,
-        resolution: 64,
-        tile: 8,
         texel_scale: 2.0,
-        iterations: Iterations::Fixed(2),
         perturb: 0,
-        ..BakeParams::paper()
+        ..bakes::params(126, 64, Iterations::Fixed(2))
     }
 }
 
@@ -392,28 +389,7 @@ fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
         assert!(rel <= 1e-4, "{rel:.2e}");
         central_mean(scene, &g.atlas, &g.irradiance, receiver(scene), 0.25)
     };
-    let scene = pane_over_floor(true, 0.02);
-    let got = gathered(&scene, Vec3::ONE);
-    let want = vlf_tests::scenes::pane_sky_irradiance(0.02) as f32;
-    eprintln!("GPU final gather, sky through a pane: {got:.4} vs {want:.4}");
-    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
-    let th = 45f32.to_radians();
-    let mut e = Vec::new();
-    for pane in [false, true] {
-        let mut scene = pane_over_floor(pane, 0.02);
-        scene.suns.push(vlf_core::scene::Sun {
-            name: None,
-            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
-            irradiance: Vec3::ONE,
-        });
-        e.push(gathered(&scene, Vec3::ZERO));
-    }
-    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
-    eprintln!(
-        "GPU final gather, sun at 45°: {:.4} vs T {want:.4}",
-        e[1] / e[0]
-    );
-    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
+    vlf_tests::scenes::check_pane_gather("GPU final gather", gathered);
 }
 
 /// The GPU path tracer looks at a uniform sky through `pane_over_floor`'s pane from under it,

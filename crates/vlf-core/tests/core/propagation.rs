@@ -2,6 +2,7 @@
 //! (The GPU propagator is checked against this reference in `tests/suite`.)
 
 use crate::bakes::params;
+use crate::scenes;
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
@@ -38,15 +39,7 @@ fn face_stats(
 #[test]
 fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
     let (le, rho) = (Vec3::new(1.0, 0.5, 0.25), 0.5);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("furnace", Vec3::splat(rho), le);
-    b.aabox(
-        Vec3::new(-1.0, -0.7, -0.4),
-        Vec3::new(1.0, 0.7, 0.4),
-        true,
-        m,
-    );
-    let scene = b.build("furnace box");
+    let scene = scenes::furnace_box(le, rho);
     let params = params(
         46,
         32,
@@ -83,18 +76,7 @@ fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
 #[test]
 fn open_plane_under_sky_reads_albedo_times_sky() {
     let (sky, rho) = (Vec3::new(2.0, 1.0, 0.5), 0.6);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    let scene = b.build("sky plane");
+    let scene = scenes::sky_plane(rho);
     let params = BakeParams {
         sky,
         ..params(46, 32, Iterations::Fixed(2))

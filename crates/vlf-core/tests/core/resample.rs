@@ -3,6 +3,7 @@
 //! nothing, exactly, as its true reflected ray hits the rectangle or not), and two parallel
 //! mirrors (a geometric series).
 
+use crate::bakes;
 use crate::scenes::{hquad, metal};
 use glam::{Vec3, Vec4};
 use vlf_core::bake::BakeScene;
@@ -18,12 +19,8 @@ use vlf_core::scene::{Scene, SceneBuilder};
 /// its cell's ray crosses the face at and the direction the value leaves along.
 fn resampled(scene: &Scene, sky: Vec3) -> Vec<(Vec3, Vec3, Vec3, u32)> {
     let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
         sky,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     };
     let prep = BakeScene::new(scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
@@ -197,12 +194,8 @@ fn glossy_tiles_are_kept_and_rough_mirrors_reflect_their_albedo() {
         hquad(&mut b, 0.0, 1.0, true, m);
         let scene = b.build("glossy plane");
         let params = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            iterations: Iterations::Fixed(1),
             sky,
-            ..BakeParams::paper()
+            ..bakes::params(46, 32, Iterations::Fixed(1))
         };
         let mut prep = BakeScene::new(&scene, &params).unwrap();
         prep.lobes[0] = model;

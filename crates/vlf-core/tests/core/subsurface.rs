@@ -2,6 +2,7 @@
 //! the hierarchical links against the analytic answers of a semi-infinite slab of Jensen's
 //! marble, and thin diffuse transmission in a whole propagation.
 
+use crate::bakes;
 use std::time::Instant;
 
 use glam::{Vec3, Vec4};
@@ -237,7 +238,7 @@ fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) ->
 fn lamp_in_diffuse_transmitting_shade() {
     use vlf_core::bake::reference;
     use vlf_core::directions::DirectionSet;
-    use vlf_core::lightfield::{BakeParams, Iterations};
+    use vlf_core::lightfield::Iterations;
     let c = Vec3::new(0.9, 0.6, 0.3);
     let mut b = SceneBuilder::new();
     let room = b.diffuse("room", Vec3::ZERO, Vec3::ZERO);
@@ -254,16 +255,14 @@ fn lamp_in_diffuse_transmitting_shade() {
     b.aabox(Vec3::splat(-0.4), Vec3::splat(0.4), false, shade);
     b.aabox(Vec3::splat(-0.25), Vec3::splat(0.25), false, lamp);
     let scene = b.build("lamp in shade");
-    let params = BakeParams {
-        directions: 126,
-        resolution: 64,
-        tile: 8,
-        iterations: Iterations::Converge {
+    let params = bakes::params(
+        126,
+        64,
+        Iterations::Converge {
             threshold: 1e-4,
             max: 20,
         },
-        ..BakeParams::paper()
-    };
+    );
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, &params);
@@ -332,7 +331,7 @@ fn lamp_in_diffuse_transmitting_shade() {
 fn marble_cube_in_room_balances_energy() {
     use vlf_core::bake::reference;
     use vlf_core::directions::DirectionSet;
-    use vlf_core::lightfield::{BakeParams, Iterations};
+    use vlf_core::lightfield::Iterations;
     let bake = |translucent: bool| {
         let mut b = SceneBuilder::new();
         let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
@@ -358,16 +357,14 @@ fn marble_cube_in_room_balances_energy() {
             cube,
         );
         let scene = b.build("marble cube");
-        let params = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            iterations: Iterations::Converge {
+        let params = bakes::params(
+            46,
+            32,
+            Iterations::Converge {
                 threshold: 1e-3,
                 max: 40,
             },
-            ..BakeParams::paper()
-        };
+        );
         let prep = BakeScene::new(&scene, &params).unwrap();
         let set = DirectionSet::at_least(params.directions).unwrap();
         let out = reference::propagate(&prep, &set, &params);
@@ -470,13 +467,6 @@ fn paper_box_through_the_final_gather() {
     );
     let scene = b.build("paper box");
     let params = |gather: bool| BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Converge {
-            threshold: 1e-3,
-            max: 40,
-        },
         final_gather: gather.then_some(GatherParams {
             texel_scale: 1.0,
             indirect_texel_scale: 2.0,
@@ -486,7 +476,14 @@ fn paper_box_through_the_final_gather() {
             sampling: Sampling::FIXED,
             denoise: vlf_core::lightfield::Denoiser::Off,
         }),
-        ..BakeParams::paper()
+        ..bakes::params(
+            46,
+            32,
+            Iterations::Converge {
+                threshold: 1e-3,
+                max: 40,
+            },
+        )
     };
     // Mean exitance of the paper's four vertical faces' outsides.
     let shown = |gather: bool| {

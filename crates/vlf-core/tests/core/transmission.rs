@@ -2,6 +2,7 @@
 //! removes half its area in fine stripes passes half the light of an emitter behind it (the
 //! propagation, the final gather and the path tracer).
 
+use crate::bakes;
 use crate::bakes::Propagation;
 use crate::scenes::{self, central_mean, receiver, striped_screen};
 use glam::Vec3;
@@ -14,13 +15,9 @@ use vlf_core::scene::Scene;
 
 fn params() -> BakeParams {
     BakeParams {
-        directions: 246,
-        resolution: 64,
-        tile: 8,
         texel_scale: 2.0,
-        iterations: Iterations::Fixed(1),
         perturb: 0,
-        ..BakeParams::paper()
+        ..bakes::params(246, 64, Iterations::Fixed(1))
     }
 }
 
@@ -287,28 +284,7 @@ fn a_pane_passes_t_of_theta_in_the_final_gather() {
         let g = final_gather(scene, &field, &gp, 0).unwrap();
         central_mean(scene, &g.atlas, &g.irradiance, receiver(scene), 0.25)
     };
-    let scene = scenes::pane_over_floor(true, 0.02);
-    let got = gathered(&scene, Vec3::ONE);
-    let want = scenes::pane_sky_irradiance(0.02) as f32;
-    eprintln!("final gather, sky through a pane: {got:.4} vs {want:.4}");
-    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
-    let th = 45f32.to_radians();
-    let mut e = Vec::new();
-    for pane in [false, true] {
-        let mut scene = scenes::pane_over_floor(pane, 0.02);
-        scene.suns.push(vlf_core::scene::Sun {
-            name: None,
-            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
-            irradiance: Vec3::ONE,
-        });
-        e.push(gathered(&scene, Vec3::ZERO));
-    }
-    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
-    eprintln!(
-        "final gather, sun at 45°: {:.4} vs T {want:.4}",
-        e[1] / e[0]
-    );
-    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
+    scenes::check_pane_gather("final gather", gathered);
 }
 
 /// The path tracer looks at the sky through the pane from under it: T(θ) × the sky at 0°, 45°
