@@ -85,6 +85,23 @@ pub fn sky_plane(rho: f32) -> Scene {
     b.build("sky plane")
 }
 
+/// A lit closed room with a red decal quad lying exactly on its floor (same plane and facing).
+pub fn decal_room() -> Scene {
+    let mut b = SceneBuilder::new();
+    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
+    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
+    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
+    b.aabox(
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 1.5, 1.0),
+        true,
+        white,
+    );
+    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
+    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
+    b.build("decal")
+}
+
 /// Stripes across the screen: texture periods over its width (each period one opaque and one
 /// transparent texel, NEAREST). The stripes are 3/93.4 = 0.032 units wide, 0.015 in VLF units:
 /// under half the ray spacing of the bakes below.
@@ -207,6 +224,25 @@ pub fn pane_over_floor(pane: bool, height: f32) -> Scene {
         b.quad(square(height, 2.0), glass);
     }
     b.build("pane over floor")
+}
+
+/// [`pane_over_floor`]`(true, 0.3)` with the pane tinted (0.9, 0.7, 0.5), the floor grey 0.6,
+/// under a sun of irradiance 2 from (0.5, −1, 0.2).
+pub fn tinted_pane_in_sun() -> Scene {
+    let mut scene = pane_over_floor(true, 0.3);
+    for m in &mut scene.materials {
+        m.base_color = if m.name == "glass" {
+            Vec3::new(0.9, 0.7, 0.5)
+        } else {
+            Vec3::splat(0.6)
+        };
+    }
+    scene.suns.push(vlf_core::scene::Sun {
+        name: None,
+        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
+        irradiance: Vec3::splat(2.0),
+    });
+    scene
 }
 
 /// A thin glass pane material named `name`: transmission 1, roughness 0, IOR 1.5, base colour

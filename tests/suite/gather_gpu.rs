@@ -91,28 +91,45 @@ fn gpu_gather(
     gather::final_gather_with(ctx, &pipelines, scene, &field.converged(), gp, &options).unwrap()
 }
 
-/// (Σ|gpu − cpu| / Σ|cpu| over covered texels and channels, fraction of covered texels whose
-/// relative difference exceeds 1e-3).
-fn difference(cpu: &Gathered, gpu: &Gathered) -> (f64, f64) {
+/// Σ|gpu − cpu| and Σ|cpu| over covered texels and channels, covered texels, and those whose
+/// relative difference exceeds 1e-3.
+pub(crate) struct Difference {
+    pub diff: f64,
+    pub total: f64,
+    pub covered: usize,
+    pub beyond: usize,
+}
+
+pub(crate) fn difference_sums(cpu: &Gathered, gpu: &Gathered) -> Difference {
     assert_eq!(cpu.irradiance.len(), gpu.irradiance.len());
-    let (mut diff, mut total, mut beyond, mut covered) = (0.0f64, 0.0f64, 0usize, 0usize);
+    let mut d = Difference {
+        diff: 0.0,
+        total: 0.0,
+        covered: 0,
+        beyond: 0,
+    };
     for (t, (c, g)) in cpu.irradiance.iter().zip(&gpu.irradiance).enumerate() {
         if cpu.atlas.texel_area[t] <= 0.0 {
             continue;
         }
         let (c, g) = (Vec4::from(*c).truncate(), Vec4::from(*g).truncate());
-        let d = f64::from((g - c).abs().element_sum());
+        let diff = f64::from((g - c).abs().element_sum());
         let s = f64::from(c.abs().element_sum());
-        diff += d;
-        total += s;
-        covered += 1;
-        if d > 1e-3 * s.max(1e-6) {
-            beyond += 1;
-        }
+        d.diff += diff;
+        d.total += s;
+        d.covered += 1;
+        d.beyond += usize::from(diff > 1e-3 * s.max(1e-6));
     }
+    d
+}
+
+/// (Σ|gpu − cpu| / Σ|cpu| over covered texels and channels, fraction of covered texels whose
+/// relative difference exceeds 1e-3).
+fn difference(cpu: &Gathered, gpu: &Gathered) -> (f64, f64) {
+    let d = difference_sums(cpu, gpu);
     (
-        diff / total.max(1e-30),
-        beyond as f64 / covered.max(1) as f64,
+        d.diff / d.total.max(1e-30),
+        d.beyond as f64 / d.covered.max(1) as f64,
     )
 }
 

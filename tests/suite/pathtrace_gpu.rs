@@ -314,47 +314,13 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         64,
     )
     .unwrap();
-    let cpu = render(&prep, &camera, &s, &|_, _| {}).unwrap();
-    let tracer = GpuPathTracer::new(&ctx.device);
-    // A second CPU image with other streams estimates the noise level.
-    let cpu2 = render(
-        &prep,
-        &camera,
-        &RenderSettings {
-            seed: 10,
-            ..s.clone()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    let noise = rel_mse(&cpu2, &cpu);
-    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
-        let options = GpuRenderOptions {
-            kernel,
-            ..Default::default()
-        };
-        let (img, _) = tracer
-            .render(ctx, &prep, &camera, &s, &options, &|_, _| {})
-            .unwrap();
-        let d = rel_mse(&img, &cpu);
-        eprintln!(
-            "materials {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds: {noise:.3e}); means {:?} vs {:?}",
-            img.mean(),
-            cpu.mean()
-        );
-        // Same streams: at most the difference between two independent CPU renders.
-        assert!(d <= noise, "{kernel:?}: {d:.3e} > {noise:.3e}");
-        assert_means_agree(&img, &cpu, &cpu2, &format!("materials {kernel:?}"));
-    }
+    both_kernels_agree_with_cpu(ctx, &prep, &camera, &s, 10, "materials");
 }
 
-/// Point and spot lights (with a sun and an emitter, so next-event estimation picks among delta
-/// lights and between them and emitters) on the GPU tracer: the CPU tracer's image within the
-/// noise of an independent CPU render (same streams), for both kernels.
 /// Both GPU kernels' images of `prep` against the CPU tracer's (same streams): relMSE at most
 /// that of two CPU renders (seeds `s.seed` and `seed2`), and image means within 5 standard
 /// errors.
-fn both_kernels_agree_with_cpu(
+pub(crate) fn both_kernels_agree_with_cpu(
     ctx: &vlf_gpu::GpuContext,
     prep: &PreparedScene,
     camera: &PinholeCamera,
@@ -394,6 +360,9 @@ fn both_kernels_agree_with_cpu(
     }
 }
 
+/// Point and spot lights (with a sun and an emitter, so next-event estimation picks among delta
+/// lights and between them and emitters) on the GPU tracer: the CPU tracer's image within the
+/// noise of an independent CPU render (same streams), for both kernels.
 #[test]
 fn gpu_matches_cpu_with_point_and_spot_lights() {
     use vlf_core::scene::{PunctualKind, PunctualLight, SceneBuilder};

@@ -207,19 +207,7 @@ fn gpu_stability_box_on_floor() {
 /// Case 6: a decal exactly on a floor: the GPU bake is bit-reproducible and equals the CPU's.
 #[test]
 fn gpu_stability_coplanar_decal() {
-    let mut b = SceneBuilder::new();
-    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
-    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
-    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
-    b.aabox(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 1.5, 1.0),
-        true,
-        white,
-    );
-    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
-    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
-    let scene = b.build("decal");
+    let scene = vlf_tests::scenes::decal_room();
     let p = params(46, 64, Iterations::Fixed(3));
     let Some((prep, cpu, gpu)) = both(&scene, &p) else {
         return;

@@ -298,19 +298,7 @@ fn the_renderer_sees_through_the_holes() {
 #[test]
 fn pane_propagation_is_bit_identical() {
     let Some(ctx) = gpu() else { return };
-    let mut scene = vlf_tests::scenes::pane_over_floor(true, 0.3);
-    for m in &mut scene.materials {
-        m.base_color = if m.name == "glass" {
-            Vec3::new(0.9, 0.7, 0.5)
-        } else {
-            Vec3::splat(0.6)
-        };
-    }
-    scene.suns.push(vlf_core::scene::Sun {
-        name: None,
-        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
-        irradiance: Vec3::splat(2.0),
-    });
+    let scene = vlf_tests::scenes::tinted_pane_in_sun();
     let p = BakeParams {
         sky: Vec3::new(0.3, 0.4, 0.5),
         iterations: Iterations::Fixed(3),

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use crate::bakes::params;
 use crate::common::base64;
-use crate::scenes::{hrect, rect};
+use crate::scenes::{self, hrect, rect};
 use glam::{DVec3, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::Quality;
@@ -453,6 +453,32 @@ fn box_on_floor_scene(kind: Crate) -> Scene {
 }
 
 /// (max inside radiance / mean outside radiance, inside power / outside power) of the box's
+/// faces (material 1) in `radiance` over `atlas` (side 1 faces into the box; the bottom's outer
+/// side faces the floor and is skipped).
+fn box_leak_ratios(scene: &Scene, atlas: &BakeScene, radiance: &[[f32; 4]]) -> (f64, f64) {
+    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
+    for (fi, f) in scene.faces.iter().enumerate() {
+        if f.material != 1 {
+            continue;
+        }
+        for side in 0..2 {
+            for t in side_range(atlas, fi, side) {
+                let a = f64::from(atlas.texel_area[t]);
+                let l = f64::from(Vec4::from(radiance[t]).max_element());
+                if side == 1 {
+                    in_max = in_max.max(l);
+                    in_pow += l * a;
+                } else if f.normal.y > -0.5 {
+                    out_pow += l * a;
+                    out_area += a;
+                }
+            }
+        }
+    }
+    (in_max / (out_pow / out_area), in_pow / out_pow)
+}
+
+/// (max inside radiance / mean outside radiance, inside power / outside power) of the box's
 /// faces (side 1 faces into the box; the bottom's outer side faces the floor and is skipped).
 fn box_leak(kind: Crate, resolution: u32, texel_scale: f32) -> (f64, f64) {
     let scene = box_on_floor_scene(kind);
@@ -466,26 +492,7 @@ fn box_leak(kind: Crate, resolution: u32, texel_scale: f32) -> (f64, f64) {
     // the room itself), within ±0.34 % at N ≥ 64. Bound 2 %.
     let imbalance = out.energy.relative_imbalance();
     assert!(imbalance.abs() < 0.02, "imbalance {imbalance}");
-    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
-    for (fi, f) in scene.faces.iter().enumerate() {
-        if f.material != 1 {
-            continue;
-        }
-        for side in 0..2 {
-            for t in side_range(&prep, fi, side) {
-                let a = f64::from(prep.texel_area[t]);
-                let l = f64::from(Vec4::from(out.radiance[t]).max_element());
-                if side == 1 {
-                    in_max = in_max.max(l);
-                    in_pow += l * a;
-                } else if f.normal.y > -0.5 {
-                    out_pow += l * a;
-                    out_area += a;
-                }
-            }
-        }
-    }
-    let r = (in_max / (out_pow / out_area), in_pow / out_pow);
+    let r = box_leak_ratios(&scene, &prep, &out.radiance);
     eprintln!(
         "box on floor, {kind:?}, N = {resolution}, texel scale {texel_scale}: inside max / outside mean {:.2e}, inside / outside power {:.2e}",
         r.0, r.1
@@ -709,26 +716,7 @@ fn box_leak_gathered(kind: Crate, resolution: u32) -> (f64, f64) {
     let (prep, set, out) = bake(&scene, &p);
     let g = gather(&scene, (&prep, &set, &out), &p, &gather_params(16, 64));
     let radiance = gathered_radiance(&g);
-    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
-    for (fi, f) in scene.faces.iter().enumerate() {
-        if f.material != 1 {
-            continue;
-        }
-        for side in 0..2 {
-            for t in side_range(&g.atlas, fi, side) {
-                let a = f64::from(g.atlas.texel_area[t]);
-                let l = f64::from(Vec4::from(radiance[t]).max_element());
-                if side == 1 {
-                    in_max = in_max.max(l);
-                    in_pow += l * a;
-                } else if f.normal.y > -0.5 {
-                    out_pow += l * a;
-                    out_area += a;
-                }
-            }
-        }
-    }
-    let r = (in_max / (out_pow / out_area), in_pow / out_pow);
+    let r = box_leak_ratios(&scene, &g.atlas, &radiance);
     eprintln!(
         "box on floor with the gather, {kind:?}, N = {resolution}: inside max / outside mean {:.2e}, inside / outside power {:.2e}; gather {:+.3}% against the propagation",
         r.0,
@@ -1210,27 +1198,10 @@ fn grazing_emitter_and_receiver_match_form_factors() {
 
 // ----- 6. coplanar overlapping faces ------------------------------------------------------------
 
-/// A lit closed room with a red decal quad lying exactly on its floor (same plane and facing).
-fn decal_scene() -> Scene {
-    let mut b = SceneBuilder::new();
-    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
-    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
-    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
-    b.aabox(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 1.5, 1.0),
-        true,
-        white,
-    );
-    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
-    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
-    b.build("decal")
-}
-
 #[test]
 fn coplanar_decal_is_deterministic_and_balanced() {
     let _t = Timer::start("coplanar decal");
-    let scene = decal_scene();
+    let scene = scenes::decal_room();
     let p = params(126, 64, Iterations::Fixed(4));
     let (prep, set, a) = bake(&scene, &p);
     let (_, _, b) = bake(&scene, &p);

@@ -223,19 +223,7 @@ fn a_pane_passes_t_of_theta_of_a_sky_in_the_propagation() {
 /// over a grey floor under a sun and a sky, 3 iterations).
 #[test]
 fn panes_keep_the_energy_balance() {
-    let mut scene = scenes::pane_over_floor(true, 0.3);
-    for m in &mut scene.materials {
-        m.base_color = if m.name == "glass" {
-            Vec3::new(0.9, 0.7, 0.5)
-        } else {
-            Vec3::splat(0.6)
-        };
-    }
-    scene.suns.push(vlf_core::scene::Sun {
-        name: None,
-        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
-        irradiance: Vec3::splat(2.0),
-    });
+    let scene = scenes::tinted_pane_in_sun();
     let params = BakeParams {
         sky: Vec3::new(0.3, 0.4, 0.5),
         iterations: Iterations::Fixed(3),
