@@ -8,7 +8,7 @@ use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::Converged;
-use vlf_core::lightfield::{BakeParams, Iterations};
+use vlf_core::lightfield::{BakeParams, Denoiser, GatherParams, Iterations, Sampling};
 use vlf_core::scene::Scene;
 
 /// The paper's parameters at `directions`, `resolution`² rays and `iterations`, tile 8.
@@ -43,6 +43,21 @@ pub fn propagate(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, params);
     (prep, set, out)
+}
+
+/// The final gather of the pane tests (`check_pane_gather`'s callers): texels twice the ray
+/// spacing, indirect grid four times, 16 light samples, 256 direct and 4 indirect rays, fixed
+/// sampling, no denoiser.
+pub fn pane_gather() -> GatherParams {
+    GatherParams {
+        texel_scale: 2.0,
+        indirect_texel_scale: 4.0,
+        light_samples: 16,
+        direct_rays: 256,
+        indirect_rays: 4,
+        sampling: Sampling::FIXED,
+        denoise: Denoiser::Off,
+    }
 }
 
 /// A CPU reference propagation of a scene: its prepared scene, direction set and result.

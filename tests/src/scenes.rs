@@ -5,8 +5,8 @@
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::scene::{
-    AlphaMode, FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture,
-    Transparency, WrapMode,
+    AlphaMode, FilterMode, Material, MaterialKind, PunctualKind, PunctualLight, Scene,
+    SceneBuilder, TexRef, Texture, Transparency, WrapMode,
 };
 
 /// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
@@ -100,6 +100,37 @@ pub fn decal_room() -> Scene {
     hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
     hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
     b.build("decal")
+}
+
+/// A point light at `position` of `intensity` (W/sr), no range.
+pub fn point_light(position: Vec3, intensity: Vec3) -> PunctualLight {
+    PunctualLight {
+        name: None,
+        kind: PunctualKind::Point,
+        position,
+        direction: Vec3::NEG_Z,
+        intensity,
+        range: None,
+    }
+}
+
+/// A spot light at `position` along unit `direction` of `intensity`, cone angles `(inner,
+/// outer)` (radians) and `range`.
+pub fn spot_light(
+    position: Vec3,
+    direction: Vec3,
+    intensity: Vec3,
+    (inner, outer): (f32, f32),
+    range: Option<f32>,
+) -> PunctualLight {
+    PunctualLight {
+        name: None,
+        kind: PunctualKind::Spot { inner, outer },
+        position,
+        direction,
+        intensity,
+        range,
+    }
 }
 
 /// Stripes across the screen: texture periods over its width (each period one opaque and one

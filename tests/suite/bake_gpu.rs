@@ -269,7 +269,6 @@ fn chunked_bins_give_identical_bits() {
 /// lavapipe (irradiance, first bounce, energy), and closely elsewhere.
 #[test]
 fn gpu_matches_cpu_bit_for_bit_with_point_and_spot_lights() {
-    use vlf_core::scene::{PunctualKind, PunctualLight};
     let mut b = SceneBuilder::new();
     let white = b.diffuse("white", Vec3::splat(0.6), Vec3::ZERO);
     let red = b.diffuse("red", Vec3::new(0.7, 0.2, 0.2), Vec3::ZERO);
@@ -287,25 +286,14 @@ fn gpu_matches_cpu_bit_for_bit_with_point_and_spot_lights() {
     );
     let mut scene = b.build("lamps in a room");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.5, 1.2, 0.4),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(2.0, 1.8, 1.5),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.3,
-                outer: 0.4,
-            },
-            position: Vec3::new(-0.8, 1.4, -0.7),
-            direction: Vec3::new(0.6, -1.0, 0.5).normalize(),
-            intensity: Vec3::new(3.0, 4.0, 5.0),
-            range: Some(4.0),
-        },
+        scenes::point_light(Vec3::new(0.5, 1.2, 0.4), Vec3::new(2.0, 1.8, 1.5)),
+        scenes::spot_light(
+            Vec3::new(-0.8, 1.4, -0.7),
+            Vec3::new(0.6, -1.0, 0.5).normalize(),
+            Vec3::new(3.0, 4.0, 5.0),
+            (0.3, 0.4),
+            Some(4.0),
+        ),
     ];
     let params = bakes::params(
         46,

@@ -16,6 +16,7 @@ use vlf_core::scene::{Scene, SceneBuilder, Sun};
 use vlf_gpu::GpuContext;
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_tests::bakes::{Propagation, under_gather};
+use vlf_tests::scenes;
 use vlf_tests::{gpu, repo_dir};
 
 /// A propagated field at small settings (CPU reference propagation).
@@ -270,7 +271,6 @@ fn gpu_gather_matches_cpu_on_analytic_scenes() {
 /// A point and a spot light and a blocker over a floor, with an emitter (so the delta lights
 /// share the direct estimator with light samples and cosine rays).
 fn lamps_and_blocker() -> Scene {
-    use vlf_core::scene::{PunctualKind, PunctualLight};
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.6), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(2.0));
@@ -295,25 +295,14 @@ fn lamps_and_blocker() -> Scene {
     );
     let mut scene = b.build("point and spot lights");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.2, 0.9, 0.1),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(1.0, 0.9, 0.75),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.3,
-                outer: 0.45,
-            },
-            position: Vec3::new(-0.6, 1.0, 0.5),
-            direction: Vec3::new(0.3, -1.0, -0.2).normalize(),
-            intensity: Vec3::new(2.0, 3.0, 4.0),
-            range: Some(3.0),
-        },
+        scenes::point_light(Vec3::new(0.2, 0.9, 0.1), Vec3::new(1.0, 0.9, 0.75)),
+        scenes::spot_light(
+            Vec3::new(-0.6, 1.0, 0.5),
+            Vec3::new(0.3, -1.0, -0.2).normalize(),
+            Vec3::new(2.0, 3.0, 4.0),
+            (0.3, 0.45),
+            Some(3.0),
+        ),
     ];
     scene
 }

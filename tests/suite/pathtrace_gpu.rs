@@ -6,6 +6,7 @@ use vlf_core::image::{Image, read_exr, rel_mse};
 use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings, Rng, render};
 use vlf_core::scene::{self, Scene};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
+use vlf_tests::scenes;
 use vlf_tests::{gpu, shared_dir};
 
 /// A shared Cornell box, shaded flat as its reference is (`reference/README.md`).
@@ -365,7 +366,7 @@ pub(crate) fn both_kernels_agree_with_cpu(
 /// noise of an independent CPU render (same streams), for both kernels.
 #[test]
 fn gpu_matches_cpu_with_point_and_spot_lights() {
-    use vlf_core::scene::{PunctualKind, PunctualLight, SceneBuilder};
+    use vlf_core::scene::SceneBuilder;
     let Some(ctx) = gpu() else { return };
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::new(0.8, 0.7, 0.6), Vec3::ZERO);
@@ -393,25 +394,14 @@ fn gpu_matches_cpu_with_point_and_spot_lights() {
     );
     let mut scene = b.build("lamps");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.8, 1.5, 0.9),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(3.0, 2.7, 2.2),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.25,
-                outer: 0.4,
-            },
-            position: Vec3::new(-1.5, 1.8, -1.4),
-            direction: Vec3::new(0.5, -1.0, 0.4).normalize(),
-            intensity: Vec3::new(6.0, 8.0, 10.0),
-            range: Some(5.0),
-        },
+        scenes::point_light(Vec3::new(0.8, 1.5, 0.9), Vec3::new(3.0, 2.7, 2.2)),
+        scenes::spot_light(
+            Vec3::new(-1.5, 1.8, -1.4),
+            Vec3::new(0.5, -1.0, 0.4).normalize(),
+            Vec3::new(6.0, 8.0, 10.0),
+            (0.25, 0.4),
+            Some(5.0),
+        ),
     ];
     let s = RenderSettings {
         width: 64,

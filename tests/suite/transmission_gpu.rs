@@ -333,15 +333,7 @@ fn pane_propagation_is_bit_identical() {
 #[test]
 fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
     let Some(ctx) = gpu() else { return };
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 16,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = bakes::pane_gather();
     let pipelines = GatherPipelines::of(ctx);
     let gathered = |scene: &vlf_core::scene::Scene, sky: Vec3| {
         let p = BakeParams {

@@ -253,15 +253,7 @@ fn panes_keep_the_energy_balance() {
 /// and a sun through it, T(θ) of its unobstructed irradiance.
 #[test]
 fn a_pane_passes_t_of_theta_in_the_final_gather() {
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 16,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = bakes::pane_gather();
     let gathered = |scene: &Scene, sky: Vec3| {
         let p = BakeParams { sky, ..params() };
         let out = Propagation::new(scene, &p);
