@@ -76,7 +76,7 @@ fn unoccluded(ray: Ray) -> vec3<f32> {
 // says, see pane_pass) through panes only, 0 where anything else blocks it
 // (through::segment_transmittance; PreparedScene::shadow_transmittance of a ray with an end).
 fn segment_transmittance(origin: vec3<f32>, d: vec3<f32>, uv_set: u32) -> vec3<f32> {
-    return pane_transmittance(origin, d, true, uv_set);
+    return transmittance_past_panes(origin, d, true, uv_set);
 }
 
 // segment_transmittance of a ray without an end along `dir` (towards a sun): the panes'
@@ -84,12 +84,12 @@ fn segment_transmittance(origin: vec3<f32>, d: vec3<f32>, uv_set: u32) -> vec3<f
 // its direction normalised, which PreparedScene::shadow_transmittance goes on along after the
 // first pane: a sun's direction is unit already, so the two differ by rounding at most).
 fn ray_transmittance(origin: vec3<f32>, dir: vec3<f32>, uv_set: u32) -> vec3<f32> {
-    return pane_transmittance(origin, dir, false, uv_set);
+    return transmittance_past_panes(origin, dir, false, uv_set);
 }
 
 // The one loop of segment_transmittance (`end`: the segment origin + s·d ends at s = 1) and
 // ray_transmittance (no end: `d` is the direction, used as given); through::transmittance.
-fn pane_transmittance(origin: vec3<f32>, d: vec3<f32>, end: bool, uv_set: u32) -> vec3<f32> {
+fn transmittance_past_panes(origin: vec3<f32>, d: vec3<f32>, end: bool, uv_set: u32) -> vec3<f32> {
     let tmax = select(FAR, 1.0, end);
     if scene_info.has_panes == 0u {
         return unoccluded(Ray(origin, 0.0, d, tmax));

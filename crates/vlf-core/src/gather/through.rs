@@ -117,7 +117,7 @@ pub fn ray_transmittance(ps: &PreparedScene, origin: Vec3, dir: Vec3) -> Vec3 {
 
 /// The one loop of [`segment_transmittance`] (`end`: the segment `origin + s·d` ends at s = 1)
 /// and [`ray_transmittance`] (no end: `d` is the unit direction, used as given).
-/// `shaders/common/pane_trace.wgsl`'s `pane_transmittance` is its port.
+/// `shaders/common/pane_trace.wgsl`'s `transmittance_past_panes` is its port.
 fn transmittance(ps: &PreparedScene, origin: Vec3, d: Vec3, end: bool) -> Vec3 {
     let tmax = if end { 1.0 } else { f32::INFINITY };
     if !ps.has_panes() {
