@@ -76,12 +76,27 @@ fn unoccluded(ray: Ray) -> vec3<f32> {
 // says, see pane_pass) through panes only, 0 where anything else blocks it
 // (through::segment_transmittance; PreparedScene::shadow_transmittance of a ray with an end).
 fn segment_transmittance(origin: vec3<f32>, d: vec3<f32>, uv_set: u32) -> vec3<f32> {
+    return transmittance_past_panes(origin, d, true, uv_set);
+}
+
+// segment_transmittance of a ray without an end along `dir` (towards a sun): the panes'
+// product when it leaves the scene, else 0 (through::ray_transmittance; the path tracer passes
+// its direction normalised, which PreparedScene::shadow_transmittance goes on along after the
+// first pane: a sun's direction is unit already, so the two differ by rounding at most).
+fn ray_transmittance(origin: vec3<f32>, dir: vec3<f32>, uv_set: u32) -> vec3<f32> {
+    return transmittance_past_panes(origin, dir, false, uv_set);
+}
+
+// The one loop of segment_transmittance (`end`: the segment origin + s·d ends at s = 1) and
+// ray_transmittance (no end: `d` is the direction, used as given); through::transmittance.
+fn transmittance_past_panes(origin: vec3<f32>, d: vec3<f32>, end: bool, uv_set: u32) -> vec3<f32> {
+    let tmax = select(FAR, 1.0, end);
     if scene_info.has_panes == 0u {
-        return unoccluded(Ray(origin, 0.0, d, 1.0));
+        return unoccluded(Ray(origin, 0.0, d, tmax));
     }
-    let dir = normalize(d);
+    let dir = select(d, normalize(d), end);
     var throughput = vec3<f32>(1.0);
-    var ray = Ray(origin, 0.0, d, 1.0);
+    var ray = Ray(origin, 0.0, d, tmax);
     for (var i = 0u; i < MAX_PANES; i++) {
         let hit = trace(ray, false);
         if hit.tri == NONE {
@@ -93,37 +108,16 @@ fn segment_transmittance(origin: vec3<f32>, d: vec3<f32>, uv_set: u32) -> vec3<f
         }
         throughput *= passed.xyz;
         let next = pane_beyond(hit, dir);
-        let rest = origin + d - next;
-        // Past the segment's end (the pane lies within an ulp of it): done.
-        if dot(rest, d) <= 0.0 {
-            return throughput;
+        if end {
+            let rest = origin + d - next;
+            // Past the segment's end (the pane lies within an ulp of it): done.
+            if dot(rest, d) <= 0.0 {
+                return throughput;
+            }
+            ray = Ray(next, 0.0, rest, 1.0);
+        } else {
+            ray = Ray(next, 0.0, dir, FAR);
         }
-        ray = Ray(next, 0.0, rest, 1.0);
-    }
-    return vec3<f32>(0.0);
-}
-
-// segment_transmittance of a ray without an end along `dir` (towards a sun): the panes'
-// product when it leaves the scene, else 0 (through::ray_transmittance; the path tracer passes
-// its direction normalised, which PreparedScene::shadow_transmittance goes on along after the
-// first pane: a sun's direction is unit already, so the two differ by rounding at most).
-fn ray_transmittance(origin: vec3<f32>, dir: vec3<f32>, uv_set: u32) -> vec3<f32> {
-    if scene_info.has_panes == 0u {
-        return unoccluded(Ray(origin, 0.0, dir, FAR));
-    }
-    var throughput = vec3<f32>(1.0);
-    var ray = Ray(origin, 0.0, dir, FAR);
-    for (var i = 0u; i < MAX_PANES; i++) {
-        let hit = trace(ray, false);
-        if hit.tri == NONE {
-            return throughput;
-        }
-        let passed = pane_pass(hit, dir, uv_set);
-        if passed.w == 0.0 {
-            return vec3<f32>(0.0);
-        }
-        throughput *= passed.xyz;
-        ray = Ray(pane_beyond(hit, dir), 0.0, dir, FAR);
     }
     return vec3<f32>(0.0);
 }

@@ -5,6 +5,7 @@
 //! unless `VLF_REQUIRE_GPU=1` (set by `.ci/run`), in which case it fails. CI therefore can never
 //! count a skipped GPU test as passed.
 
+pub mod bakes;
 pub mod scenes;
 
 use std::path::PathBuf;

@@ -1,12 +1,137 @@
 //! Test scenes shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::scenes`): surfaces that let light through.
+//! suite (`vlf_tests::scenes`): the rectangles and materials scenes are built from, and
+//! surfaces that let light through.
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::scene::{
-    AlphaMode, FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture,
-    Transparency, WrapMode,
+    AlphaMode, FilterMode, Material, MaterialKind, PunctualKind, PunctualLight, Scene,
+    SceneBuilder, TexRef, Texture, Transparency, WrapMode,
 };
+
+/// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
+pub fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
+    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
+}
+
+/// Horizontal rectangle `[x0, x1] × [z0, z1]` at height `y`, facing up or down.
+pub fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
+    let o = Vec3::new(x.0, y, z.0);
+    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
+    if up {
+        rect(b, o, ez, ex, m);
+    } else {
+        rect(b, o, ex, ez, m);
+    }
+}
+
+/// Horizontal quad at height y spanning [-s, s]², facing up (`up`) or down.
+pub fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
+    let mut q = [
+        Vec3::new(-s, y, -s),
+        Vec3::new(-s, y, s),
+        Vec3::new(s, y, s),
+        Vec3::new(s, y, -s),
+    ];
+    if !up {
+        q.reverse();
+    }
+    b.quad(q, m);
+}
+
+/// A white GGX metal named `name` of roughness α (reflectance 1, double-sided).
+pub fn metal(b: &mut SceneBuilder, name: &str, alpha: f32) -> u32 {
+    b.material(Material {
+        name: name.into(),
+        base_color: Vec3::ONE,
+        base_color_texture: None,
+        emission: Vec3::ZERO,
+        emissive_texture: None,
+        double_sided: true,
+        kind: MaterialKind::Mirror,
+        metallic: 1.0,
+        roughness: alpha.sqrt(),
+        transparency: Default::default(),
+    })
+}
+
+/// A horizontal white GGX metal square of roughness α at y = 0 over [-1, 1]² (the scene's
+/// only face).
+pub fn metal_plane(alpha: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = metal(&mut b, &format!("metal α {alpha}"), alpha);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    b.build("metal plane")
+}
+
+/// pbrt-v4's furnace: a closed 2 × 1.4 × 0.8 box facing in, emitting `le` with albedo `rho`.
+pub fn furnace_box(le: Vec3, rho: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("furnace", Vec3::splat(rho), le);
+    b.aabox(
+        Vec3::new(-1.0, -0.7, -0.4),
+        Vec3::new(1.0, 0.7, 0.4),
+        true,
+        m,
+    );
+    b.build("furnace box")
+}
+
+/// A lone grey square of albedo `rho` at y = 0 over [-1, 1]², facing up.
+pub fn sky_plane(rho: f32) -> Scene {
+    let mut b = SceneBuilder::new();
+    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
+    hquad(&mut b, 0.0, 1.0, true, m);
+    b.build("sky plane")
+}
+
+/// A lit closed room with a red decal quad lying exactly on its floor (same plane and facing).
+pub fn decal_room() -> Scene {
+    let mut b = SceneBuilder::new();
+    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
+    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
+    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
+    b.aabox(
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 1.5, 1.0),
+        true,
+        white,
+    );
+    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
+    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
+    b.build("decal")
+}
+
+/// A point light at `position` of `intensity` (W/sr), no range.
+pub fn point_light(position: Vec3, intensity: Vec3) -> PunctualLight {
+    PunctualLight {
+        name: None,
+        kind: PunctualKind::Point,
+        position,
+        direction: Vec3::NEG_Z,
+        intensity,
+        range: None,
+    }
+}
+
+/// A spot light at `position` along unit `direction` of `intensity`, cone angles `(inner,
+/// outer)` (radians) and `range`.
+pub fn spot_light(
+    position: Vec3,
+    direction: Vec3,
+    intensity: Vec3,
+    (inner, outer): (f32, f32),
+    range: Option<f32>,
+) -> PunctualLight {
+    PunctualLight {
+        name: None,
+        kind: PunctualKind::Spot { inner, outer },
+        position,
+        direction,
+        intensity,
+        range,
+    }
+}
 
 /// Stripes across the screen: texture periods over its width (each period one opaque and one
 /// transparent texel, NEAREST). The stripes are 3/93.4 = 0.032 units wide, 0.015 in VLF units:
@@ -130,6 +255,25 @@ pub fn pane_over_floor(pane: bool, height: f32) -> Scene {
         b.quad(square(height, 2.0), glass);
     }
     b.build("pane over floor")
+}
+
+/// [`pane_over_floor`]`(true, 0.3)` with the pane tinted (0.9, 0.7, 0.5), the floor grey 0.6,
+/// under a sun of irradiance 2 from (0.5, −1, 0.2).
+pub fn tinted_pane_in_sun() -> Scene {
+    let mut scene = pane_over_floor(true, 0.3);
+    for m in &mut scene.materials {
+        m.base_color = if m.name == "glass" {
+            Vec3::new(0.9, 0.7, 0.5)
+        } else {
+            Vec3::splat(0.6)
+        };
+    }
+    scene.suns.push(vlf_core::scene::Sun {
+        name: None,
+        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
+        irradiance: Vec3::splat(2.0),
+    });
+    scene
 }
 
 /// A thin glass pane material named `name`: transmission 1, roughness 0, IOR 1.5, base colour
@@ -273,6 +417,33 @@ pub fn glazed_room_lights(scene: &mut Scene) {
         intensity: Vec3::new(1.0, 0.9, 0.8),
         range: None,
     });
+}
+
+/// The checks of a final gather through a pane, `gathered(scene, sky)` being the gathered
+/// irradiance at the centre of the receiver: under a sky of radiance 1, `pane_over_floor(true,
+/// 0.02)` receives [`pane_sky_irradiance`] within 1 %; under a sun at 45° (no sky), the pane
+/// passes T(45°) of what the floor receives without it, within 1 %. `what` names the gather in
+/// the printed figures.
+pub fn check_pane_gather(what: &str, mut gathered: impl FnMut(&Scene, Vec3) -> f32) {
+    let scene = pane_over_floor(true, 0.02);
+    let got = gathered(&scene, Vec3::ONE);
+    let want = pane_sky_irradiance(0.02) as f32;
+    eprintln!("{what}, sky through a pane: {got:.4} vs {want:.4}");
+    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
+    let th = 45f32.to_radians();
+    let mut e = Vec::new();
+    for pane in [false, true] {
+        let mut scene = pane_over_floor(pane, 0.02);
+        scene.suns.push(vlf_core::scene::Sun {
+            name: None,
+            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
+            irradiance: Vec3::ONE,
+        });
+        e.push(gathered(&scene, Vec3::ZERO));
+    }
+    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
+    eprintln!("{what}, sun at 45°: {:.4} vs T {want:.4}", e[1] / e[0]);
+    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
 }
 
 /// The irradiance at the centre of `pane_over_floor(true, height)`'s receiver under a sky of

@@ -6,6 +6,8 @@ use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
+use vlf_tests::bakes;
+use vlf_tests::scenes;
 use vlf_tests::{gpu, repo_dir};
 
 fn both(scene: &Scene, params: &BakeParams) -> Option<(BakeScene, Propagated, Propagated)> {
@@ -41,13 +43,7 @@ fn difference(prep: &BakeScene, a: &[[f32; 4]], b: &[[f32; 4]], floor: f32) -> (
 fn gpu_matches_cpu_reference_on_cornell_box() {
     let scene =
         vlf_core::scene::load(&repo_dir().join("assets/cornell-box/cornell-box.gltf")).unwrap();
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let Some((prep, cpu, gpu)) = both(&scene, &params) else {
         return;
     };
@@ -75,25 +71,15 @@ fn gpu_matches_cpu_reference_on_cornell_box() {
 #[test]
 fn gpu_furnace_closed_box() {
     let (le, rho) = (Vec3::new(1.0, 0.5, 0.25), 0.5);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("furnace", Vec3::splat(rho), le);
-    b.aabox(
-        Vec3::new(-1.0, -0.7, -0.4),
-        Vec3::new(1.0, 0.7, 0.4),
-        true,
-        m,
-    );
-    let scene = b.build("furnace box");
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Converge {
+    let scene = scenes::furnace_box(le, rho);
+    let params = bakes::params(
+        46,
+        32,
+        Iterations::Converge {
             threshold: 1e-5,
             max: 100,
         },
-        ..BakeParams::paper()
-    };
+    );
     let Some((prep, _, gpu)) = both(&scene, &params) else {
         return;
     };
@@ -116,25 +102,10 @@ fn gpu_furnace_closed_box() {
 #[test]
 fn gpu_open_plane_under_sky() {
     let (sky, rho) = (Vec3::new(2.0, 1.0, 0.5), 0.6);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    let scene = b.build("sky plane");
+    let scene = scenes::sky_plane(rho);
     let params = BakeParams {
         sky,
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     };
     let Some((prep, _, gpu)) = both(&scene, &params) else {
         return;
@@ -157,13 +128,7 @@ fn gpu_matches_cpu_reference_on_mirror_cornell_box() {
     let scene =
         vlf_core::scene::load(&repo_dir().join("assets/cornell-mirror/cornell-mirror.gltf"))
             .unwrap();
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let Some((prep, cpu, gpu)) = both(&scene, &params) else {
         return;
     };
@@ -241,13 +206,7 @@ fn chunked_bins_give_identical_bits() {
         "assets/cornell-mirror/cornell-mirror.gltf",
     ] {
         let scene = vlf_core::scene::load(&repo_dir().join(asset)).unwrap();
-        let params = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            iterations: Iterations::Fixed(2),
-            ..BakeParams::paper()
-        };
+        let params = bakes::params(46, 32, Iterations::Fixed(2));
         let prep = BakeScene::new(&scene, &params).unwrap();
         let set = DirectionSet::at_least(params.directions).unwrap();
         let (dirs, _) = reference::all_directions(&prep, &set, &params);
@@ -310,7 +269,6 @@ fn chunked_bins_give_identical_bits() {
 /// lavapipe (irradiance, first bounce, energy), and closely elsewhere.
 #[test]
 fn gpu_matches_cpu_bit_for_bit_with_point_and_spot_lights() {
-    use vlf_core::scene::{PunctualKind, PunctualLight};
     let mut b = SceneBuilder::new();
     let white = b.diffuse("white", Vec3::splat(0.6), Vec3::ZERO);
     let red = b.diffuse("red", Vec3::new(0.7, 0.2, 0.2), Vec3::ZERO);
@@ -328,36 +286,23 @@ fn gpu_matches_cpu_bit_for_bit_with_point_and_spot_lights() {
     );
     let mut scene = b.build("lamps in a room");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.5, 1.2, 0.4),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(2.0, 1.8, 1.5),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.3,
-                outer: 0.4,
-            },
-            position: Vec3::new(-0.8, 1.4, -0.7),
-            direction: Vec3::new(0.6, -1.0, 0.5).normalize(),
-            intensity: Vec3::new(3.0, 4.0, 5.0),
-            range: Some(4.0),
-        },
+        scenes::point_light(Vec3::new(0.5, 1.2, 0.4), Vec3::new(2.0, 1.8, 1.5)),
+        scenes::spot_light(
+            Vec3::new(-0.8, 1.4, -0.7),
+            Vec3::new(0.6, -1.0, 0.5).normalize(),
+            Vec3::new(3.0, 4.0, 5.0),
+            (0.3, 0.4),
+            Some(4.0),
+        ),
     ];
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Converge {
+    let params = bakes::params(
+        46,
+        32,
+        Iterations::Converge {
             threshold: 1e-3,
             max: 20,
         },
-        ..BakeParams::paper()
-    };
+    );
     let Some((prep, cpu, gpu)) = both(&scene, &params) else {
         return;
     };

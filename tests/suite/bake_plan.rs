@@ -11,6 +11,7 @@ use vlf_gpu::bake::{
     BakePipelines, BakePlan, GpuBakeOptions, SceneResources, binding_limit, propagate_with,
 };
 use vlf_gpu::{DeviceOptions, GpuContext};
+use vlf_tests::bakes;
 use vlf_tests::{gpu, repo_dir};
 
 /// A device of its own, or `None` when GPU tests are skipped.
@@ -40,13 +41,7 @@ fn load(asset: &str, params: &BakeParams) -> (BakeScene, DirectionSet) {
 }
 
 fn params() -> BakeParams {
-    BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(1),
-        ..BakeParams::paper()
-    }
+    bakes::params(46, 32, Iterations::Fixed(1))
 }
 
 /// Every buffer the propagator allocates is a buffer of its plan, with the planned label,

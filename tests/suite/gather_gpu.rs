@@ -9,57 +9,34 @@
 //! on how the texels are split into chunks nor the samples into steps.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeScene, Quality, reference};
-use vlf_core::directions::DirectionSet;
+use vlf_core::bake::Quality;
 use vlf_core::gather::{Converged, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
+use vlf_core::lightfield::{GatherParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
 use vlf_gpu::GpuContext;
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
+use vlf_tests::bakes::{Propagation, under_gather};
+use vlf_tests::scenes;
 use vlf_tests::{gpu, repo_dir};
 
 /// A propagated field at small settings (CPU reference propagation).
 pub(crate) struct Field {
-    prep: BakeScene,
-    set: DirectionSet,
-    irradiance: Vec<[f32; 4]>,
-    tiles: Option<(vlf_core::lightfield::TileIndex, Vec<[f32; 4]>)>,
+    prop: Propagation,
     sky: Vec3,
 }
 
 impl Field {
     pub(crate) fn new(scene: &Scene, sky: Vec3) -> Field {
-        let params = BakeParams {
-            directions: 126,
-            resolution: 32,
-            tile: 4,
-            texel_scale: 1.0,
-            iterations: Iterations::Fixed(4),
-            sky,
-            perturb: 0,
-            ..BakeParams::paper()
-        };
-        let prep = BakeScene::new(scene, &params).unwrap();
-        let set = DirectionSet::at_least(params.directions).unwrap();
-        let prop = reference::propagate(&prep, &set, &params);
-        Field {
-            prep,
-            set,
-            irradiance: prop.irradiance,
-            tiles: prop.tiles,
-            sky,
-        }
+        let prop = Propagation::new(scene, &under_gather(sky, Iterations::Fixed(4)));
+        Field { prop, sky }
     }
 
+    /// The field without its first bounce, at the ray spacing of 32² rays over the VLF's
+    /// 2-unit cube.
     pub(crate) fn converged(&self) -> Converged<'_> {
         Converged {
-            prep: &self.prep,
-            irradiance: &self.irradiance,
             first_bounce: None,
-            tiles: self.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &self.set,
-            sky: self.sky,
-            ray_spacing: 2.0 / 32.0,
+            ..self.prop.converged(self.sky, 2.0 / 32.0)
         }
     }
 }
@@ -115,28 +92,45 @@ fn gpu_gather(
     gather::final_gather_with(ctx, &pipelines, scene, &field.converged(), gp, &options).unwrap()
 }
 
-/// (Σ|gpu − cpu| / Σ|cpu| over covered texels and channels, fraction of covered texels whose
-/// relative difference exceeds 1e-3).
-fn difference(cpu: &Gathered, gpu: &Gathered) -> (f64, f64) {
+/// Σ|gpu − cpu| and Σ|cpu| over covered texels and channels, covered texels, and those whose
+/// relative difference exceeds 1e-3.
+pub(crate) struct Difference {
+    pub diff: f64,
+    pub total: f64,
+    pub covered: usize,
+    pub beyond: usize,
+}
+
+pub(crate) fn difference_sums(cpu: &Gathered, gpu: &Gathered) -> Difference {
     assert_eq!(cpu.irradiance.len(), gpu.irradiance.len());
-    let (mut diff, mut total, mut beyond, mut covered) = (0.0f64, 0.0f64, 0usize, 0usize);
+    let mut d = Difference {
+        diff: 0.0,
+        total: 0.0,
+        covered: 0,
+        beyond: 0,
+    };
     for (t, (c, g)) in cpu.irradiance.iter().zip(&gpu.irradiance).enumerate() {
         if cpu.atlas.texel_area[t] <= 0.0 {
             continue;
         }
         let (c, g) = (Vec4::from(*c).truncate(), Vec4::from(*g).truncate());
-        let d = f64::from((g - c).abs().element_sum());
+        let diff = f64::from((g - c).abs().element_sum());
         let s = f64::from(c.abs().element_sum());
-        diff += d;
-        total += s;
-        covered += 1;
-        if d > 1e-3 * s.max(1e-6) {
-            beyond += 1;
-        }
+        d.diff += diff;
+        d.total += s;
+        d.covered += 1;
+        d.beyond += usize::from(diff > 1e-3 * s.max(1e-6));
     }
+    d
+}
+
+/// (Σ|gpu − cpu| / Σ|cpu| over covered texels and channels, fraction of covered texels whose
+/// relative difference exceeds 1e-3).
+fn difference(cpu: &Gathered, gpu: &Gathered) -> (f64, f64) {
+    let d = difference_sums(cpu, gpu);
     (
-        diff / total.max(1e-30),
-        beyond as f64 / covered.max(1) as f64,
+        d.diff / d.total.max(1e-30),
+        d.beyond as f64 / d.covered.max(1) as f64,
     )
 }
 
@@ -277,7 +271,6 @@ fn gpu_gather_matches_cpu_on_analytic_scenes() {
 /// A point and a spot light and a blocker over a floor, with an emitter (so the delta lights
 /// share the direct estimator with light samples and cosine rays).
 fn lamps_and_blocker() -> Scene {
-    use vlf_core::scene::{PunctualKind, PunctualLight};
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.6), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(2.0));
@@ -302,25 +295,14 @@ fn lamps_and_blocker() -> Scene {
     );
     let mut scene = b.build("point and spot lights");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.2, 0.9, 0.1),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(1.0, 0.9, 0.75),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.3,
-                outer: 0.45,
-            },
-            position: Vec3::new(-0.6, 1.0, 0.5),
-            direction: Vec3::new(0.3, -1.0, -0.2).normalize(),
-            intensity: Vec3::new(2.0, 3.0, 4.0),
-            range: Some(3.0),
-        },
+        scenes::point_light(Vec3::new(0.2, 0.9, 0.1), Vec3::new(1.0, 0.9, 0.75)),
+        scenes::spot_light(
+            Vec3::new(-0.6, 1.0, 0.5),
+            Vec3::new(0.3, -1.0, -0.2).normalize(),
+            Vec3::new(2.0, 3.0, 4.0),
+            (0.3, 0.45),
+            Some(3.0),
+        ),
     ];
     scene
 }

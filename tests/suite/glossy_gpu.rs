@@ -9,35 +9,10 @@ use vlf_core::directions::DirectionSet;
 use vlf_core::gather::field::Tiles;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::material::GgxAlbedo;
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder, Sun};
+use vlf_core::scene::{Material, MaterialKind, SceneBuilder, Sun};
+use vlf_tests::bakes;
+use vlf_tests::scenes::metal_plane;
 use vlf_tests::{gpu, repo_dir};
-
-/// A horizontal white GGX metal square of roughness α at y = 0.
-fn plane(alpha: f32) -> Scene {
-    let mut b = SceneBuilder::new();
-    let m = b.material(Material {
-        name: format!("metal α {alpha}"),
-        base_color: Vec3::ONE,
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: alpha.sqrt(),
-        transparency: Default::default(),
-    });
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    b.build("metal plane")
-}
 
 fn bits(v: &[[f32; 4]]) -> Vec<[u32; 4]> {
     v.iter().map(|x| x.map(f32::to_bits)).collect()
@@ -91,7 +66,7 @@ fn gpu_glossy_furnace() {
     };
     let sky = Vec3::new(1.0, 0.5, 0.25);
     for alpha in [0.05f32, 0.2, 0.5] {
-        let scene = plane(alpha);
+        let scene = metal_plane(alpha);
         let params = BakeParams {
             directions: 246,
             resolution: 32,
@@ -155,13 +130,7 @@ fn gpu_matches_cpu_reference_on_glossy_cornell_box() {
         direction: Vec3::new(0.3, -1.0, -0.4).normalize(),
         irradiance: Vec3::splat(2.0),
     });
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let mut prep = BakeScene::new(&scene, &params).unwrap();
     for m in &mut prep.lobes {
         if m.alpha() > 0.0 {
@@ -238,13 +207,7 @@ fn gpu_matches_cpu_reference_on_sub_cell_mirrors() {
         );
     }
     let scene = b.build("sub-cell mirrors in a room");
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(3));
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let grid = vlf_core::psf::PsfGrid::new(params.resolution, params.tile).unwrap();

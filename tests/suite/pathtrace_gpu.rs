@@ -6,6 +6,7 @@ use vlf_core::image::{Image, read_exr, rel_mse};
 use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings, Rng, render};
 use vlf_core::scene::{self, Scene};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
+use vlf_tests::scenes;
 use vlf_tests::{gpu, shared_dir};
 
 /// A shared Cornell box, shaded flat as its reference is (`reference/README.md`).
@@ -314,47 +315,13 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         64,
     )
     .unwrap();
-    let cpu = render(&prep, &camera, &s, &|_, _| {}).unwrap();
-    let tracer = GpuPathTracer::new(&ctx.device);
-    // A second CPU image with other streams estimates the noise level.
-    let cpu2 = render(
-        &prep,
-        &camera,
-        &RenderSettings {
-            seed: 10,
-            ..s.clone()
-        },
-        &|_, _| {},
-    )
-    .unwrap();
-    let noise = rel_mse(&cpu2, &cpu);
-    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
-        let options = GpuRenderOptions {
-            kernel,
-            ..Default::default()
-        };
-        let (img, _) = tracer
-            .render(ctx, &prep, &camera, &s, &options, &|_, _| {})
-            .unwrap();
-        let d = rel_mse(&img, &cpu);
-        eprintln!(
-            "materials {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds: {noise:.3e}); means {:?} vs {:?}",
-            img.mean(),
-            cpu.mean()
-        );
-        // Same streams: at most the difference between two independent CPU renders.
-        assert!(d <= noise, "{kernel:?}: {d:.3e} > {noise:.3e}");
-        assert_means_agree(&img, &cpu, &cpu2, &format!("materials {kernel:?}"));
-    }
+    both_kernels_agree_with_cpu(ctx, &prep, &camera, &s, 10, "materials");
 }
 
-/// Point and spot lights (with a sun and an emitter, so next-event estimation picks among delta
-/// lights and between them and emitters) on the GPU tracer: the CPU tracer's image within the
-/// noise of an independent CPU render (same streams), for both kernels.
 /// Both GPU kernels' images of `prep` against the CPU tracer's (same streams): relMSE at most
 /// that of two CPU renders (seeds `s.seed` and `seed2`), and image means within 5 standard
 /// errors.
-fn both_kernels_agree_with_cpu(
+pub(crate) fn both_kernels_agree_with_cpu(
     ctx: &vlf_gpu::GpuContext,
     prep: &PreparedScene,
     camera: &PinholeCamera,
@@ -394,9 +361,12 @@ fn both_kernels_agree_with_cpu(
     }
 }
 
+/// Point and spot lights (with a sun and an emitter, so next-event estimation picks among delta
+/// lights and between them and emitters) on the GPU tracer: the CPU tracer's image within the
+/// noise of an independent CPU render (same streams), for both kernels.
 #[test]
 fn gpu_matches_cpu_with_point_and_spot_lights() {
-    use vlf_core::scene::{PunctualKind, PunctualLight, SceneBuilder};
+    use vlf_core::scene::SceneBuilder;
     let Some(ctx) = gpu() else { return };
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::new(0.8, 0.7, 0.6), Vec3::ZERO);
@@ -424,25 +394,14 @@ fn gpu_matches_cpu_with_point_and_spot_lights() {
     );
     let mut scene = b.build("lamps");
     scene.lights = vec![
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Point,
-            position: Vec3::new(0.8, 1.5, 0.9),
-            direction: Vec3::NEG_Z,
-            intensity: Vec3::new(3.0, 2.7, 2.2),
-            range: None,
-        },
-        PunctualLight {
-            name: None,
-            kind: PunctualKind::Spot {
-                inner: 0.25,
-                outer: 0.4,
-            },
-            position: Vec3::new(-1.5, 1.8, -1.4),
-            direction: Vec3::new(0.5, -1.0, 0.4).normalize(),
-            intensity: Vec3::new(6.0, 8.0, 10.0),
-            range: Some(5.0),
-        },
+        scenes::point_light(Vec3::new(0.8, 1.5, 0.9), Vec3::new(3.0, 2.7, 2.2)),
+        scenes::spot_light(
+            Vec3::new(-1.5, 1.8, -1.4),
+            Vec3::new(0.5, -1.0, 0.4).normalize(),
+            Vec3::new(6.0, 8.0, 10.0),
+            (0.25, 0.4),
+            Some(5.0),
+        ),
     ];
     let s = RenderSettings {
         width: 64,

@@ -5,18 +5,15 @@ use glam::{Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, FormFactors, RadiositySettings};
+use vlf_tests::bakes;
 use vlf_tests::{gpu, shared_dir};
 
 fn cornell_form_factors(rays: u32) -> (BakeParams, FormFactors) {
     let scene =
         vlf_core::scene::load(&shared_dir().join("scenes/cornell-box/cornell.gltf")).unwrap();
     let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
         texel_scale: 2.0,
-        iterations: Iterations::Fixed(3),
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(3))
     };
     let prep = BakeScene::new(&scene, &params).unwrap();
     let settings = RadiositySettings {

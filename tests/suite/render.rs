@@ -5,6 +5,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::OnceLock;
+use vlf_tests::bakes;
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, Iterations, LightField};
@@ -20,13 +21,7 @@ const H: u32 = 64;
 /// The brief's small development settings: 46 directions (k = 3: 46), 32 rays per side,
 /// 8×8 tiles, two iterations.
 fn small_params() -> BakeParams {
-    BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
-        ..BakeParams::paper()
-    }
+    bakes::params(46, 32, Iterations::Fixed(2))
 }
 
 fn bake(path: &Path, params: &BakeParams) -> LightField {

@@ -5,7 +5,7 @@
 
 use glam::Vec4;
 use vlf_core::lightfield::{
-    BakeParams, Iterations, LightField, Radiance, RadianceEncoding, encoding::f16_decode,
+    Iterations, LightField, Radiance, RadianceEncoding, encoding::f16_decode,
 };
 use vlf_gpu::readback::{read_buffer, storage_buffer};
 use vlf_gpu::render::final_radiance::{
@@ -14,6 +14,7 @@ use vlf_gpu::render::final_radiance::{
 use vlf_gpu::render::upload::rho_over_pi;
 use vlf_gpu::render::upload::{ATLAS_WIDTH, radiance_texture};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
 use vlf_tests::{gpu, repo_dir};
 
 /// Test-only shader: value `i` of the uploaded radiance texture, fetched like pass 5 does.
@@ -143,13 +144,7 @@ fn gpu_texel_fetch_decodes_both_encodings_exactly() {
 
 fn bake(scene: &str) -> LightField {
     let scene = vlf_core::scene::load(&repo_dir().join(scene)).unwrap();
-    let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
-        ..BakeParams::paper()
-    };
+    let params = bakes::params(46, 32, Iterations::Fixed(2));
     vlf_core::pipeline::bake_cpu(&scene, &params).unwrap()
 }
 

@@ -11,6 +11,8 @@ use vlf_gpu::GpuContext;
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace::{self, MAX_DEPTH};
 use vlf_gpu::render::{CameraView, FrameData, NO_FACE, Renderer};
+use vlf_tests::bakes;
+use vlf_tests::scenes::hquad;
 use vlf_tests::{gpu, shared_dir, window_frame};
 
 const W: u32 = 64;
@@ -18,27 +20,9 @@ const H: u32 = 64;
 
 fn small_params(sky: Vec3) -> BakeParams {
     BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
         sky,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     }
-}
-
-/// Horizontal quad at height y spanning [-s, s]², facing up or down.
-fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
-    let mut q = [
-        Vec3::new(-s, y, -s),
-        Vec3::new(-s, y, s),
-        Vec3::new(s, y, s),
-        Vec3::new(s, y, -s),
-    ];
-    if !up {
-        q.reverse();
-    }
-    b.quad(q, m);
 }
 
 /// A mirror of reflectance `rho` (material 0, roughness 0) facing up over [-1, 1]² at y = 0.

@@ -10,6 +10,7 @@ use vlf_core::scene::{
 };
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
 use vlf_tests::{gpu, window_frame};
 
 const W: u32 = 96;
@@ -66,12 +67,8 @@ fn set_uvs(scene: &mut Scene, m: u32, f: impl Fn(Vec3) -> Vec2) {
 
 fn bake(scene: &Scene, sky: Vec3) -> LightField {
     let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
         sky,
-        iterations: Iterations::Fixed(2),
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     };
     vlf_core::pipeline::bake_cpu(scene, &params).unwrap()
 }

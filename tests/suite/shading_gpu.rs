@@ -9,21 +9,19 @@
 //! analytically under a uniform sky.
 
 use glam::{Vec2, Vec3, Vec4};
-use vlf_core::bake::{BakeScene, reference};
-use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
-use vlf_core::image::rel_mse;
 use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, GatherParams, Iterations, Sampling};
-use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings, render};
+use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings};
 use vlf_core::scene::{
     Corners, FilterMode, Material, MaterialKind, Scene, SceneBuilder, Sun, TexRef, Texture,
     WrapMode,
 };
 use vlf_gpu::gather::{GatherOptions, GatherPipelines};
-use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, Kernel};
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::mirror_trace;
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
+use vlf_tests::bakes::Propagation;
 use vlf_tests::{gpu, window_frame};
 
 /// A 2 × 2 texture of four colours.
@@ -132,15 +130,11 @@ const SKY: Vec3 = Vec3::new(0.2, 0.2, 0.3);
 
 fn small_params(sky: Vec3) -> BakeParams {
     BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
         texel_scale: 1.0,
-        iterations: Iterations::Fixed(3),
         sky,
         perturb: 0,
         final_gather: None,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(3))
     }
 }
 
@@ -153,17 +147,10 @@ fn gpu_gather_matches_cpu_with_shading_normals_colours_and_uv1() {
     let Some(ctx) = gpu() else { return };
     let scene = attribute_scene();
     let params = small_params(SKY);
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let prop = reference::propagate(&prep, &set, &params);
+    let prop = Propagation::new(&scene, &params);
     let field = Converged {
-        prep: &prep,
-        irradiance: &prop.irradiance,
         first_bounce: None,
-        tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-        directions: &set,
-        sky: SKY,
-        ray_spacing: 2.0 / 32.0,
+        ..prop.converged(SKY, 2.0 / 32.0)
     };
     let gp = GatherParams {
         texel_scale: 1.0,
@@ -185,25 +172,17 @@ fn gpu_gather_matches_cpu_with_shading_normals_colours_and_uv1() {
         &GatherOptions::default(),
     )
     .unwrap();
-    let (mut diff, mut total, mut beyond, mut covered) = (0.0f64, 0.0f64, 0usize, 0usize);
-    for (t, (c, g)) in cpu.irradiance.iter().zip(&gpu.irradiance).enumerate() {
-        if cpu.atlas.texel_area[t] <= 0.0 {
-            continue;
-        }
-        let (c, g) = (Vec4::from(*c).truncate(), Vec4::from(*g).truncate());
-        let d = f64::from((g - c).abs().element_sum());
-        let s = f64::from(c.abs().element_sum());
-        diff += d;
-        total += s;
-        covered += 1;
-        beyond += usize::from(d > 1e-3 * s.max(1e-6));
-    }
-    let (mean, beyond) = (diff / total, beyond as f64 / covered as f64);
+    let d = crate::gather_gpu::difference_sums(&cpu, &gpu);
+    let (mean, beyond, covered) = (
+        d.diff / d.total,
+        d.beyond as f64 / d.covered as f64,
+        d.covered,
+    );
     eprintln!(
         "attribute scene: {covered} covered texels; GPU vs CPU gather: mean relative difference \
          {mean:.3e}, texels beyond 1e-3: {beyond:.4}"
     );
-    assert!(total > 0.0);
+    assert!(d.total > 0.0);
     assert!(mean <= 1e-4, "mean relative difference {mean:.3e}");
     assert!(beyond <= 0.01, "{beyond:.4} of texels beyond 1e-3");
 }
@@ -231,27 +210,14 @@ fn gpu_path_tracer_matches_cpu_with_shading_normals_colours_and_uv1() {
         48,
     )
     .unwrap();
-    let cpu = render(&prep, &camera, &s, &|_, _| {}).unwrap();
-    let other = RenderSettings {
-        seed: 10,
-        ..s.clone()
-    };
-    let noise = rel_mse(&render(&prep, &camera, &other, &|_, _| {}).unwrap(), &cpu);
-    let tracer = GpuPathTracer::new(&ctx.device);
-    for kernel in [Kernel::Wavefront, Kernel::Megakernel] {
-        let options = GpuRenderOptions {
-            kernel,
-            ..Default::default()
-        };
-        let (img, _) = tracer
-            .render(ctx, &prep, &camera, &s, &options, &|_, _| {})
-            .unwrap();
-        let d = rel_mse(&img, &cpu);
-        eprintln!(
-            "attribute scene {kernel:?}: relMSE GPU vs CPU {d:.3e} (two CPU seeds {noise:.3e})"
-        );
-        assert!(d <= noise, "{kernel:?}: {d:.3e} > {noise:.3e}");
-    }
+    crate::pathtrace_gpu::both_kernels_agree_with_cpu(
+        ctx,
+        &prep,
+        &camera,
+        &s,
+        10,
+        "attribute scene",
+    );
 }
 
 fn rgb(p: [f32; 4]) -> Vec3 {

@@ -1,5 +1,5 @@
 //! The stability suite on the GPU (issue 8): the important cases of
-//! `crates/vlf-core/tests/stability.rs` baked by the GPU propagator, which must equal the CPU
+//! `crates/vlf-core/tests/core/stability.rs` baked by the GPU propagator, which must equal the CPU
 //! reference (area-weighted mean relative difference < 1e-3) and keep its exact properties (a
 //! wall passes exactly nothing, bakes are bit-reproducible). The physics bounds themselves are
 //! asserted on the CPU; the scenes are rebuilt here (the two test crates share no code).
@@ -10,17 +10,9 @@ use vlf_core::bake::reference::{self, Propagated};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
+use vlf_tests::bakes::params;
 use vlf_tests::gpu;
-
-fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
+use vlf_tests::scenes::{hrect, rect};
 
 /// CPU and GPU bakes of `scene`, or `None` when there is no GPU (and it is not required).
 fn both(scene: &Scene, params: &BakeParams) -> Option<(BakeScene, Propagated, Propagated)> {
@@ -88,20 +80,6 @@ fn assert_gpu_matches(what: &str, prep: &BakeScene, cpu: &Propagated, gpu: &Prop
             rel(ec.escaped, eg.escaped) < 1e-3,
             "{what}: {ec:?} vs {eg:?}"
         );
-    }
-}
-
-fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
-    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
-}
-
-fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
-    let o = Vec3::new(x.0, y, z.0);
-    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
-    if up {
-        rect(b, o, ez, ex, m);
-    } else {
-        rect(b, o, ex, ez, m);
     }
 }
 
@@ -229,19 +207,7 @@ fn gpu_stability_box_on_floor() {
 /// Case 6: a decal exactly on a floor: the GPU bake is bit-reproducible and equals the CPU's.
 #[test]
 fn gpu_stability_coplanar_decal() {
-    let mut b = SceneBuilder::new();
-    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
-    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
-    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
-    b.aabox(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 1.5, 1.0),
-        true,
-        white,
-    );
-    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
-    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
-    let scene = b.build("decal");
+    let scene = vlf_tests::scenes::decal_room();
     let p = params(46, 64, Iterations::Fixed(3));
     let Some((prep, cpu, gpu)) = both(&scene, &p) else {
         return;

@@ -15,18 +15,16 @@ use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
+use vlf_tests::bakes;
+use vlf_tests::bakes::Propagation;
 use vlf_tests::scenes::{central_mean, pane_over_floor, receiver, striped_screen};
 use vlf_tests::{gpu, window_frame};
 
 fn params() -> BakeParams {
     BakeParams {
-        directions: 126,
-        resolution: 64,
-        tile: 8,
         texel_scale: 2.0,
-        iterations: Iterations::Fixed(2),
         perturb: 0,
-        ..BakeParams::paper()
+        ..bakes::params(126, 64, Iterations::Fixed(2))
     }
 }
 
@@ -300,19 +298,7 @@ fn the_renderer_sees_through_the_holes() {
 #[test]
 fn pane_propagation_is_bit_identical() {
     let Some(ctx) = gpu() else { return };
-    let mut scene = vlf_tests::scenes::pane_over_floor(true, 0.3);
-    for m in &mut scene.materials {
-        m.base_color = if m.name == "glass" {
-            Vec3::new(0.9, 0.7, 0.5)
-        } else {
-            Vec3::splat(0.6)
-        };
-    }
-    scene.suns.push(vlf_core::scene::Sun {
-        name: None,
-        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
-        irradiance: Vec3::splat(2.0),
-    });
+    let scene = vlf_tests::scenes::tinted_pane_in_sun();
     let p = BakeParams {
         sky: Vec3::new(0.3, 0.4, 0.5),
         iterations: Iterations::Fixed(3),
@@ -347,15 +333,7 @@ fn pane_propagation_is_bit_identical() {
 #[test]
 fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
     let Some(ctx) = gpu() else { return };
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 16,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = bakes::pane_gather();
     let pipelines = GatherPipelines::of(ctx);
     let gathered = |scene: &vlf_core::scene::Scene, sky: Vec3| {
         let p = BakeParams {
@@ -363,17 +341,10 @@ fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
             iterations: Iterations::Fixed(1),
             ..params()
         };
-        let prep = BakeScene::new(scene, &p).unwrap();
-        let set = DirectionSet::at_least(p.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &p);
+        let out = Propagation::new(scene, &p);
         let field = Converged {
-            prep: &prep,
-            irradiance: &out.irradiance,
             first_bounce: None,
-            tiles: out.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &set,
-            sky,
-            ray_spacing: 2.0 / p.resolution as f32,
+            ..out.converged(sky, 2.0 / p.resolution as f32)
         };
         let g = gather::final_gather_with(
             ctx,
@@ -398,28 +369,7 @@ fn gpu_final_gather_passes_t_of_theta_through_a_pane() {
         assert!(rel <= 1e-4, "{rel:.2e}");
         central_mean(scene, &g.atlas, &g.irradiance, receiver(scene), 0.25)
     };
-    let scene = pane_over_floor(true, 0.02);
-    let got = gathered(&scene, Vec3::ONE);
-    let want = vlf_tests::scenes::pane_sky_irradiance(0.02) as f32;
-    eprintln!("GPU final gather, sky through a pane: {got:.4} vs {want:.4}");
-    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
-    let th = 45f32.to_radians();
-    let mut e = Vec::new();
-    for pane in [false, true] {
-        let mut scene = pane_over_floor(pane, 0.02);
-        scene.suns.push(vlf_core::scene::Sun {
-            name: None,
-            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
-            irradiance: Vec3::ONE,
-        });
-        e.push(gathered(&scene, Vec3::ZERO));
-    }
-    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
-    eprintln!(
-        "GPU final gather, sun at 45°: {:.4} vs T {want:.4}",
-        e[1] / e[0]
-    );
-    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
+    vlf_tests::scenes::check_pane_gather("GPU final gather", gathered);
 }
 
 /// The GPU path tracer looks at a uniform sky through `pane_over_floor`'s pane from under it,

@@ -174,6 +174,43 @@ macro_rules! bindings {
 }
 pub(crate) use bindings;
 
+/// Declares a bake pass: its [`bindings!`] and the pass struct holding its group-1 layout and
+/// its pipeline (`main` of `shader`), labelled `"{label}::…"`, with `new` and a `bind_group`
+/// that takes the named bindings. The four bake passes differ only in these.
+macro_rules! bake_pass {
+    (
+        $(#[$pass_meta:meta])* $pass:ident($label:literal, $shader:path),
+        $(#[$meta:meta])* $name:ident { $($field:ident: $access:ident),+ $(,)? }
+    ) => {
+        $crate::wgpu_util::bindings! { $(#[$meta])* $name { $($field: $access),+ } }
+
+        $(#[$pass_meta])*
+        pub struct $pass {
+            pub layout: wgpu::BindGroupLayout,
+            pub pipeline: wgpu::ComputePipeline,
+        }
+
+        impl $pass {
+            pub fn new(device: &wgpu::Device, globals: &wgpu::BindGroupLayout) -> Self {
+                let layout = $crate::wgpu_util::pass_layout(device, $label, $name::LAYOUT);
+                let pipeline =
+                    $crate::wgpu_util::pass_pipeline(device, $label, globals, &layout, &$shader);
+                Self { layout, pipeline }
+            }
+
+            pub fn bind_group(&self, device: &wgpu::Device, b: &$name) -> wgpu::BindGroup {
+                $crate::wgpu_util::buffer_bind_group(
+                    device,
+                    concat!($label, "::bind_group"),
+                    &self.layout,
+                    &b.buffers(),
+                )
+            }
+        }
+    };
+}
+pub(crate) use bake_pass;
+
 /// The group-1 layout of pass `name` from its bindings' `LAYOUT`.
 pub(crate) fn pass_layout(
     device: &wgpu::Device,

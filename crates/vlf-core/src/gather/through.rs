@@ -106,16 +106,30 @@ pub fn trace(
 /// normalised): 1 through nothing, the panes' transmittance product through panes only, 0 where
 /// anything else blocks it.
 pub fn segment_transmittance(ps: &PreparedScene, origin: Vec3, d: Vec3) -> Vec3 {
+    transmittance(ps, origin, d, true)
+}
+
+/// [`segment_transmittance`] of a ray without an end (towards a sun) along unit `dir`: the
+/// panes' product when it leaves the scene, else 0.
+pub fn ray_transmittance(ps: &PreparedScene, origin: Vec3, dir: Vec3) -> Vec3 {
+    transmittance(ps, origin, dir, false)
+}
+
+/// The one loop of [`segment_transmittance`] (`end`: the segment `origin + s·d` ends at s = 1)
+/// and [`ray_transmittance`] (no end: `d` is the unit direction, used as given).
+/// `shaders/common/pane_trace.wgsl`'s `transmittance_past_panes` is its port.
+fn transmittance(ps: &PreparedScene, origin: Vec3, d: Vec3, end: bool) -> Vec3 {
+    let tmax = if end { 1.0 } else { f32::INFINITY };
     if !ps.has_panes() {
-        return if ps.bvh.occluded(&Ray::new(origin, d, 1.0)) {
+        return if ps.bvh.occluded(&Ray::new(origin, d, tmax)) {
             Vec3::ZERO
         } else {
             Vec3::ONE
         };
     }
-    let dir = d.normalize();
+    let dir = if end { d.normalize() } else { d };
     let mut throughput = Vec3::ONE;
-    let mut ray = Ray::new(origin, d, 1.0);
+    let mut ray = Ray::new(origin, d, tmax);
     for _ in 0..MAX_PANES {
         let hit = ps.bvh.closest_hit(&ray);
         if !hit.is_hit() {
@@ -126,26 +140,18 @@ pub fn segment_transmittance(ps: &PreparedScene, origin: Vec3, d: Vec3) -> Vec3 
         };
         throughput *= pass;
         let from = beyond(ps, &hit, dir);
-        let rest = origin + d - from;
-        // Past the segment's end (the pane lies within an ulp of it): done.
-        if rest.dot(d) <= 0.0 {
-            return throughput;
-        }
-        ray = Ray::new(from, rest, 1.0);
-    }
-    Vec3::ZERO
-}
-
-/// [`segment_transmittance`] of a ray without an end (towards a sun).
-pub fn ray_transmittance(ps: &PreparedScene, origin: Vec3, dir: Vec3) -> Vec3 {
-    if !ps.has_panes() {
-        return if ps.bvh.occluded(&Ray::new(origin, dir, f32::INFINITY)) {
-            Vec3::ZERO
+        ray = if end {
+            let rest = origin + d - from;
+            // Past the segment's end (the pane lies within an ulp of it): done.
+            if rest.dot(d) <= 0.0 {
+                return throughput;
+            }
+            Ray::new(from, rest, 1.0)
         } else {
-            Vec3::ONE
+            Ray::new(from, dir, f32::INFINITY)
         };
     }
-    trace(ps, origin, dir, &mut |_, _| {}).transmitted()
+    Vec3::ZERO
 }
 
 impl Traced {

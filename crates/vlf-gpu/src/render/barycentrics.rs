@@ -2,45 +2,28 @@
 //! perspective-correctly over the flat triangle (= `DirectionSet::lookup`'s gnomonic weights).
 //! Component n belongs to pass 1's id n. Shader: `shaders/render_barycentrics.wgsl`.
 
-use super::pipelines::MeshPass;
-use super::targets::{BARYCENTRICS_FORMAT, Targets};
+use super::pipelines::{ColorTarget, MeshPass};
+use super::targets::BARYCENTRICS_FORMAT;
 use super::upload::GpuLightField;
 use crate::shaders;
 
-pub struct BarycentricsPass(MeshPass);
-
-impl BarycentricsPass {
-    pub fn new(
-        device: &wgpu::Device,
-        globals_layout: &wgpu::BindGroupLayout,
-        lf: &GpuLightField,
-    ) -> Self {
-        let shader = &shaders::RENDER_BARYCENTRICS;
-        Self(MeshPass::sphere(
-            device,
-            "Barycentrics",
-            shader,
-            globals_layout,
-            lf,
-            BARYCENTRICS_FORMAT,
-        ))
-    }
-
-    /// Clears the target (zero weights) and draws the sphere mesh.
-    pub fn encode(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        globals: &wgpu::BindGroup,
-        targets: &Targets,
-        lf: &GpuLightField,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        let zero = wgpu::Color::TRANSPARENT;
-        let color = [Some(super::color_attachment(
-            &targets.barycentrics_view,
-            zero,
-        ))];
-        let vertices = lf.sphere_triangle_count * 3;
-        (self.0).encode(encoder, globals, targets, &color, vertices, timestamps);
-    }
+/// The pass: it clears its target (zero weights) and draws the sphere mesh.
+pub(super) fn pass(
+    device: &wgpu::Device,
+    globals_layout: &wgpu::BindGroupLayout,
+    lf: &GpuLightField,
+) -> MeshPass {
+    let target = ColorTarget {
+        view: |t| &t.barycentrics_view,
+        clear: Some(wgpu::Color::TRANSPARENT),
+    };
+    let shader = ("Barycentrics", &shaders::RENDER_BARYCENTRICS);
+    MeshPass::sphere(
+        device,
+        shader,
+        globals_layout,
+        lf,
+        BARYCENTRICS_FORMAT,
+        target,
+    )
 }

@@ -14,7 +14,7 @@
 //! 4. [`position`]: the scene again against pass 3's depth → VLF position of the visible point
 //!    (`Rgba32Float`, w = 1 where a face is seen) and its `TEXCOORD_0` (`Rg32Float`); for
 //!    light fields with per-corner attributes (shading normals, vertex colours, `TEXCOORD_1`)
-//!    a second draw ([`position::AttributesPass`]) interpolates those into two `Rgba32Float`
+//!    a second draw ([`position::attributes_pass`]) interpolates those into two `Rgba32Float`
 //!    targets.
 //! 5. [`final_radiance`]: per pixel (a viewport-covering triangle), the radiance leaving that
 //!    point towards the camera: emission and base-colour texture at the pixel's uv applied to
@@ -77,13 +77,10 @@ pub use camera::{CameraView, sample_offsets};
 
 use crate::GpuContext;
 use crate::layout::RenderGlobals;
-use barycentrics::BarycentricsPass;
-use direction_ids::DirectionIdsPass;
 use display::DisplayPass;
 use face_id::FaceIdPass;
 use final_radiance::FinalRadiancePass;
 use mirror_trace::GpuMirrorScene;
-use position::{AttributesPass, PositionPass};
 use targets::Targets;
 use timing::{FrameTimestamps, GpuTimer};
 use upload::GpuLightField;
@@ -257,12 +254,12 @@ pub struct Renderer {
     light_field: GpuLightField,
     /// The BVH pass 5 traces mirror reflections through.
     mirror_scene: GpuMirrorScene,
-    direction_ids: DirectionIdsPass,
-    barycentrics: BarycentricsPass,
+    direction_ids: pipelines::MeshPass,
+    barycentrics: pipelines::MeshPass,
     face_id: FaceIdPass,
-    position: PositionPass,
+    position: pipelines::MeshPass,
     /// Pass 4b, for light fields with per-corner attributes.
-    attributes: Option<AttributesPass>,
+    attributes: Option<pipelines::MeshPass>,
     final_radiance: FinalRadiancePass,
     display: DisplayPass,
     frame: Option<Frame>,
@@ -315,12 +312,13 @@ impl Renderer {
             }],
         });
         Ok(Self {
-            direction_ids: DirectionIdsPass::new(device, &globals_layout, &light_field),
-            barycentrics: BarycentricsPass::new(device, &globals_layout, &light_field),
+            direction_ids: direction_ids::pass(device, &globals_layout, &light_field),
+            barycentrics: barycentrics::pass(device, &globals_layout, &light_field),
             face_id: FaceIdPass::new(device, &globals_layout, &light_field, depth_format),
-            position: PositionPass::new(device, &globals_layout, &light_field, depth_format),
-            attributes: attributes
-                .then(|| AttributesPass::new(device, &globals_layout, &light_field, depth_format)),
+            position: position::position_pass(device, &globals_layout, &light_field, depth_format),
+            attributes: attributes.then(|| {
+                position::attributes_pass(device, &globals_layout, &light_field, depth_format)
+            }),
             final_radiance: FinalRadiancePass::new(
                 device,
                 &globals_layout,
@@ -497,7 +495,7 @@ impl Renderer {
         if passes.position {
             self.position.encode(encoder, g, tg, lf, stamps.writes(3));
             if let Some(a) = &self.attributes {
-                a.encode(encoder, g, tg, lf);
+                a.encode(encoder, g, tg, lf, None);
             }
         }
     }

@@ -38,27 +38,38 @@ pub(super) fn pass_three_depth(
     }
 }
 
+/// A colour target of a [`MeshPass`]: its view among the frame's targets, and the colour it is
+/// cleared to first (`None`: loaded and kept — read only where a face is seen, all of which the
+/// pass writes, so not cleared).
+pub(super) struct ColorTarget {
+    pub view: fn(&super::targets::Targets) -> &wgpu::TextureView,
+    pub clear: Option<wgpu::Color>,
+}
+
 /// A pass drawing one of the light field's meshes with its pipeline, group 0 the globals and
-/// group 1 its own bind group: passes 1 and 2 (the sphere mesh, [`MeshPass::sphere`]) and 4 and
-/// 4b (the scene over pass 3's depth, [`MeshPass::over_pass_three`]).
+/// group 1 its own bind group, into its colour targets: passes 1 and 2 (the sphere mesh,
+/// [`MeshPass::sphere`]) and 4 and 4b (the scene over pass 3's depth,
+/// [`MeshPass::over_pass_three`]).
 pub(super) struct MeshPass {
     /// The pass's name, for labels (`"{pass}::thing"`).
     pass: &'static str,
     pipeline: wgpu::RenderPipeline,
     bind_group: wgpu::BindGroup,
-    /// Drawn against pass 3's depth (loaded and kept), and its stencil where `Some(true)`.
+    /// Drawn against pass 3's depth (loaded and kept), and its stencil where `Some(true)`; the
+    /// scene's triangles then, else the sphere mesh.
     over_pass_three: Option<bool>,
+    targets: Vec<ColorTarget>,
 }
 
 impl MeshPass {
-    /// A pass of the sphere mesh writing `format`, no depth.
+    /// A pass of the sphere mesh writing `format` into `target`, no depth.
     pub(super) fn sphere(
         device: &wgpu::Device,
-        pass: &'static str,
-        shader: &crate::shaders::Shader,
+        (pass, shader): (&'static str, &crate::shaders::Shader),
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
         format: wgpu::TextureFormat,
+        target: ColorTarget,
     ) -> Self {
         let (pass_layout, bind_group) = sphere_pass_layout(device, pass, lf);
         let pipeline = render_pipeline(
@@ -76,22 +87,24 @@ impl MeshPass {
             pipeline,
             bind_group,
             over_pass_three: None,
+            targets: vec![target],
         }
     }
 
     /// A pass of the scene's triangles against pass 3's depth (of `depth_format`:
     /// [`pass_three_depth`], only the visible surface is shaded) writing `formats`, its group 1
-    /// the light field's `buffers` (vertex stage, in binding order) and its alpha masks.
+    /// the light field's `buffers` (vertex stage, in binding order) and its alpha masks, into
+    /// `targets`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn over_pass_three(
         device: &wgpu::Device,
-        pass: &'static str,
-        shader: &crate::shaders::Shader,
+        (pass, shader): (&'static str, &crate::shaders::Shader),
         globals_layout: &wgpu::BindGroupLayout,
         lf: &GpuLightField,
         buffers: &[&wgpu::Buffer],
         formats: &[wgpu::TextureFormat],
         depth_format: wgpu::TextureFormat,
+        targets: Vec<ColorTarget>,
     ) -> Self {
         let (pass_layout, bind_group) =
             geometry_pass_layout(device, pass, buffers, &lf.alpha_masks);
@@ -110,17 +123,18 @@ impl MeshPass {
             pipeline,
             bind_group,
             over_pass_three: Some(depth_format == super::targets::DEPTH_STENCIL_FORMAT),
+            targets,
         }
     }
 
-    /// Draws `vertices` into `color` (and pass 3's depth and stencil, loaded and kept).
+    /// Clears its colour targets that are cleared and draws its mesh into them (and pass 3's
+    /// depth and stencil, loaded and kept).
     pub(super) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         globals: &wgpu::BindGroup,
         targets: &super::targets::Targets,
-        color: &[Option<wgpu::RenderPassColorAttachment<'_>>],
-        vertices: u32,
+        lf: &GpuLightField,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         fn keep<V>() -> wgpu::Operations<V> {
@@ -129,6 +143,26 @@ impl MeshPass {
                 store: wgpu::StoreOp::Store,
             }
         }
+        let color: Vec<_> = self
+            .targets
+            .iter()
+            .map(|c| {
+                let view = (c.view)(targets);
+                Some(match c.clear {
+                    Some(clear) => color_attachment(view, clear),
+                    None => wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: keep(),
+                    },
+                })
+            })
+            .collect();
+        let vertices = 3 * match self.over_pass_three {
+            Some(_) => lf.triangle_count,
+            None => lf.sphere_triangle_count,
+        };
         let depth = self
             .over_pass_three
             .map(|stencil| wgpu::RenderPassDepthStencilAttachment {
@@ -138,7 +172,7 @@ impl MeshPass {
             });
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(&format!("{}::pass", self.pass)),
-            color_attachments: color,
+            color_attachments: &color,
             depth_stencil_attachment: depth,
             timestamp_writes: timestamps,
             occlusion_query_set: None,

@@ -14,7 +14,7 @@ pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Floa
 /// Pass 4's second output: `TEXCOORD_0` of the visible point (undefined where no face is seen).
 pub const UV_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg32Float;
 /// Pass 4b's attribute outputs (light fields with per-corner attributes only, see
-/// [`super::position::AttributesPass`]): `[shading normal xyz, TEXCOORD_1 u]` of the visible
+/// [`super::position::attributes_pass`]): `[shading normal xyz, TEXCOORD_1 u]` of the visible
 /// point, and its other attributes packed into words ([`ATTRIBUTE_WORDS_FORMAT`]: `TEXCOORD_1`
 /// v, then vertex colour and irradiance correction as f16 pairs, `shaders/common/
 /// surface_attributes.wgsl`).

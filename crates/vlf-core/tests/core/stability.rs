@@ -5,13 +5,16 @@
 //! The bakes are deterministic (no float atomics, fixed seeds), so the margins only have to
 //! absorb f32 differences between platforms and deliberate changes to the propagator.
 //! `docs/STABILITY.md` quotes the numbers printed here
-//! (`cargo test -p vlf-core --test stability -- --nocapture`); the GPU runs the important cases
+//! (`cargo test -p vlf-core --test core stability:: -- --nocapture`); the GPU runs the important cases
 //! in `tests/suite/stability_gpu.rs`.
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
+use crate::bakes::params;
+use crate::common::base64;
+use crate::scenes::{self, hrect, rect};
 use glam::{DVec3, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::Quality;
@@ -28,16 +31,6 @@ use vlf_core::scene::{Scene, SceneBuilder};
 const ENERGY_BOUND: f64 = 0.01;
 
 // ----- helpers ------------------------------------------------------------------------------
-
-fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
 
 /// A propagation and its texels' outgoing radiance (`BakeScene::outgoing_radiance` of its
 /// irradiance: emission + ρE/π), which most checks here are about.
@@ -103,22 +96,6 @@ impl Timer {
 impl Drop for Timer {
     fn drop(&mut self) {
         eprintln!("[{}: {:.2} s]", self.0, self.1.elapsed().as_secs_f64());
-    }
-}
-
-/// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
-fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
-    b.quad([o, o + e1, o + e1 + e2, o + e2], m);
-}
-
-/// Horizontal rectangle `[x0, x1] × [z0, z1]` at height `y`, facing up or down.
-fn hrect(b: &mut SceneBuilder, y: f32, x: (f32, f32), z: (f32, f32), up: bool, m: u32) {
-    let o = Vec3::new(x.0, y, z.0);
-    let (ex, ez) = (Vec3::X * (x.1 - x.0), Vec3::Z * (z.1 - z.0));
-    if up {
-        rect(b, o, ez, ex, m);
-    } else {
-        rect(b, o, ex, ez, m);
     }
 }
 
@@ -476,6 +453,32 @@ fn box_on_floor_scene(kind: Crate) -> Scene {
 }
 
 /// (max inside radiance / mean outside radiance, inside power / outside power) of the box's
+/// faces (material 1) in `radiance` over `atlas` (side 1 faces into the box; the bottom's outer
+/// side faces the floor and is skipped).
+fn box_leak_ratios(scene: &Scene, atlas: &BakeScene, radiance: &[[f32; 4]]) -> (f64, f64) {
+    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
+    for (fi, f) in scene.faces.iter().enumerate() {
+        if f.material != 1 {
+            continue;
+        }
+        for side in 0..2 {
+            for t in side_range(atlas, fi, side) {
+                let a = f64::from(atlas.texel_area[t]);
+                let l = f64::from(Vec4::from(radiance[t]).max_element());
+                if side == 1 {
+                    in_max = in_max.max(l);
+                    in_pow += l * a;
+                } else if f.normal.y > -0.5 {
+                    out_pow += l * a;
+                    out_area += a;
+                }
+            }
+        }
+    }
+    (in_max / (out_pow / out_area), in_pow / out_pow)
+}
+
+/// (max inside radiance / mean outside radiance, inside power / outside power) of the box's
 /// faces (side 1 faces into the box; the bottom's outer side faces the floor and is skipped).
 fn box_leak(kind: Crate, resolution: u32, texel_scale: f32) -> (f64, f64) {
     let scene = box_on_floor_scene(kind);
@@ -489,26 +492,7 @@ fn box_leak(kind: Crate, resolution: u32, texel_scale: f32) -> (f64, f64) {
     // the room itself), within ±0.34 % at N ≥ 64. Bound 2 %.
     let imbalance = out.energy.relative_imbalance();
     assert!(imbalance.abs() < 0.02, "imbalance {imbalance}");
-    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
-    for (fi, f) in scene.faces.iter().enumerate() {
-        if f.material != 1 {
-            continue;
-        }
-        for side in 0..2 {
-            for t in side_range(&prep, fi, side) {
-                let a = f64::from(prep.texel_area[t]);
-                let l = f64::from(Vec4::from(out.radiance[t]).max_element());
-                if side == 1 {
-                    in_max = in_max.max(l);
-                    in_pow += l * a;
-                } else if f.normal.y > -0.5 {
-                    out_pow += l * a;
-                    out_area += a;
-                }
-            }
-        }
-    }
-    let r = (in_max / (out_pow / out_area), in_pow / out_pow);
+    let r = box_leak_ratios(&scene, &prep, &out.radiance);
     eprintln!(
         "box on floor, {kind:?}, N = {resolution}, texel scale {texel_scale}: inside max / outside mean {:.2e}, inside / outside power {:.2e}",
         r.0, r.1
@@ -732,26 +716,7 @@ fn box_leak_gathered(kind: Crate, resolution: u32) -> (f64, f64) {
     let (prep, set, out) = bake(&scene, &p);
     let g = gather(&scene, (&prep, &set, &out), &p, &gather_params(16, 64));
     let radiance = gathered_radiance(&g);
-    let (mut in_max, mut in_pow, mut out_pow, mut out_area) = (0f64, 0f64, 0f64, 0f64);
-    for (fi, f) in scene.faces.iter().enumerate() {
-        if f.material != 1 {
-            continue;
-        }
-        for side in 0..2 {
-            for t in side_range(&g.atlas, fi, side) {
-                let a = f64::from(g.atlas.texel_area[t]);
-                let l = f64::from(Vec4::from(radiance[t]).max_element());
-                if side == 1 {
-                    in_max = in_max.max(l);
-                    in_pow += l * a;
-                } else if f.normal.y > -0.5 {
-                    out_pow += l * a;
-                    out_area += a;
-                }
-            }
-        }
-    }
-    let r = (in_max / (out_pow / out_area), in_pow / out_pow);
+    let r = box_leak_ratios(&scene, &g.atlas, &radiance);
     eprintln!(
         "box on floor with the gather, {kind:?}, N = {resolution}: inside max / outside mean {:.2e}, inside / outside power {:.2e}; gather {:+.3}% against the propagation",
         r.0,
@@ -952,7 +917,7 @@ fn the_atlas_denoiser_leaks_nothing_across_a_contact_or_a_thin_wall() {
 }
 
 /// The same with Intel Open Image Denoise's lightmap filter (`--denoise oidn`): builds with the
-/// feature only (`cargo test -p vlf-core --features oidn --test stability oidn -- --nocapture`,
+/// feature only (`cargo test -p vlf-core --features oidn --test core stability::oidn -- --nocapture`,
 /// with OIDN_DIR and the library's path set, docs/GATHER.md); CI does not build it. OIDN sees
 /// each chart's neighbours in its image (beyond the padding), so charts that are black without
 /// it (the closed box's inside, the split room's dark half) receive light, and on a floor that
@@ -1233,27 +1198,10 @@ fn grazing_emitter_and_receiver_match_form_factors() {
 
 // ----- 6. coplanar overlapping faces ------------------------------------------------------------
 
-/// A lit closed room with a red decal quad lying exactly on its floor (same plane and facing).
-fn decal_scene() -> Scene {
-    let mut b = SceneBuilder::new();
-    let white = b.diffuse("white", Vec3::splat(0.7), Vec3::ZERO);
-    let red = b.diffuse("decal", Vec3::new(0.8, 0.1, 0.1), Vec3::ZERO);
-    let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(10.0));
-    b.aabox(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 1.5, 1.0),
-        true,
-        white,
-    );
-    hrect(&mut b, 0.0, (-0.3, 0.3), (-0.3, 0.3), true, red);
-    hrect(&mut b, 1.48, (-0.3, 0.3), (-0.3, 0.3), false, light);
-    b.build("decal")
-}
-
 #[test]
 fn coplanar_decal_is_deterministic_and_balanced() {
     let _t = Timer::start("coplanar decal");
-    let scene = decal_scene();
+    let scene = scenes::decal_room();
     let p = params(126, 64, Iterations::Fixed(4));
     let (prep, set, a) = bake(&scene, &p);
     let (_, _, b) = bake(&scene, &p);
@@ -1375,25 +1323,6 @@ fn needle_triangles_bake_without_cracks() {
     assert_eq!(missed, 0);
     assert_eq!(dark, 0.0);
     assert_balanced(&out, "needles");
-}
-
-/// Standard base64 (for a glTF data URI).
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                A[((n >> (18 - 6 * i)) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    s
 }
 
 /// Writes a glTF with one mesh: primitive k uses `indices[k]` and material k, where material k

@@ -328,7 +328,7 @@ fn closed_furnace_converges_to_geometric_series() {
     }
 }
 
-/// The acceptance measurement (run with `cargo test --release -p vlf-core --test pathtrace --
+/// The acceptance measurement (run with `cargo test --release -p vlf-core --test core pathtrace:: --
 /// --ignored --nocapture`): 1024 spp against both references.
 #[test]
 #[ignore = "takes about a minute in release"]

@@ -4,6 +4,7 @@
 //! energy bookkeeping intact. Run with `--nocapture` to print the figures `docs/PROPAGATION.md`
 //! quotes.
 
+use crate::bakes;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -89,12 +90,8 @@ fn auto_params() -> BakeParams {
 /// A small bake of the same scenes (126 directions, 32² rays) for the comparisons.
 fn small_params(iterations: Iterations) -> BakeParams {
     BakeParams {
-        directions: 126,
-        resolution: 32,
-        tile: 8,
         texel_scale: 2.0,
-        iterations,
-        ..BakeParams::paper()
+        ..bakes::params(126, 32, iterations)
     }
 }
 

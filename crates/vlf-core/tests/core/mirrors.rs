@@ -1,42 +1,12 @@
 //! Mirrors and mixed surfaces in the CPU reference propagator against analytic answers.
 
+use crate::bakes::{params, propagate};
+use crate::scenes::hquad;
 use glam::{Vec3, Vec4};
 use vlf_core::bake::BakeScene;
-use vlf_core::bake::reference::{self, Propagated};
-use vlf_core::directions::DirectionSet;
+use vlf_core::bake::reference;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder};
-
-fn bake(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet, Propagated) {
-    let prep = BakeScene::new(scene, params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, params);
-    (prep, set, out)
-}
-
-fn params(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
-
-/// Horizontal quad at height y, facing up (`up`) or down, spanning [-s, s]².
-fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
-    let mut q = [
-        Vec3::new(-s, y, -s),
-        Vec3::new(-s, y, s),
-        Vec3::new(s, y, s),
-        Vec3::new(s, y, -s),
-    ];
-    if !up {
-        q.reverse();
-    }
-    b.quad(q, m);
-}
 
 /// A mirror facing a uniformly emitting plane returns reflectance × emission along the
 /// reflected rays.
@@ -49,7 +19,7 @@ fn mirror_facing_uniform_emitter_reflects_rho_times_emission() {
     hquad(&mut b, 0.2, 3.0, false, light); // large emitter just above, facing down
     hquad(&mut b, 0.0, 0.5, true, m); // mirror facing up
     let scene = b.build("mirror under emitter");
-    let (prep, set, out) = bake(&scene, &params(126, 64, Iterations::Fixed(2)));
+    let (prep, set, out) = propagate(&scene, &params(126, 64, Iterations::Fixed(2)));
     let (index, values) = out.tiles.as_ref().expect("tiles for the mirror");
     let mirror_face = prep.faces.iter().position(|f| f.kind != 0).unwrap() as u32;
     let (mut checked, mut worst) = (0, 0.0f32);
@@ -143,7 +113,7 @@ fn parallel_mirrors_give_the_geometric_series() {
         m,
     );
     let scene = b.build("mirror corridor");
-    let (prep, _set, out) = bake(
+    let (prep, _set, out) = propagate(
         &scene,
         &params(
             501,
@@ -241,7 +211,7 @@ fn caustic_energy_matches_reflected_energy() {
     let p = params(501, 128, Iterations::Fixed(2));
     // Power arriving at the mirror: the same face as a white diffuser (L = E/π after 1 bounce).
     let white_scene = build(None);
-    let (prep_w, _, white) = bake(
+    let (prep_w, _, white) = propagate(
         &white_scene,
         &BakeParams {
             iterations: Iterations::Fixed(1),
@@ -261,8 +231,8 @@ fn caustic_energy_matches_reflected_energy() {
     );
     // Wall power with the mirror minus with an absorbing mirror = the caustic.
     let mirror_scene = build(Some(rho));
-    let (prep_m, _, with_mirror) = bake(&mirror_scene, &p);
-    let (_, _, black) = bake(&build(Some(0.0)), &p);
+    let (prep_m, _, with_mirror) = propagate(&mirror_scene, &p);
+    let (_, _, black) = propagate(&build(Some(0.0)), &p);
     let ff = mirror_scene
         .faces
         .iter()
@@ -347,7 +317,7 @@ fn sub_cell_mirrors_reflect_all_they_receive() {
     // Lattice 4 × 4 × 4 in a scene of radius ≈ 2.6 (cells ≈ 0.16 wide): sides 0.04 and 0.65.
     for (side, sub_cell) in [(0.04f32, true), (0.65, false)] {
         let scene = mirror_cloud(4, side);
-        let (prep, set, out) = bake(&scene, &p(Iterations::Fixed(1)));
+        let (prep, set, out) = propagate(&scene, &p(Iterations::Fixed(1)));
         let cell = grid.cell_size();
         let face_side = side * scene.to_vlf.scale;
         assert_eq!(
@@ -385,7 +355,7 @@ fn sub_cell_mirrors_reflect_all_they_receive() {
             "side {side}: the first iteration keeps {:.3} of what it received: {e:?}",
             e.unshot / e.injected
         );
-        let (_, _, out) = bake(&scene, &p(Iterations::Fixed(4)));
+        let (_, _, out) = propagate(&scene, &p(Iterations::Fixed(4)));
         let e = &out.energy;
         eprintln!("side {side}: 4 iterations {:.4}", e.relative_imbalance());
         assert!(
@@ -413,7 +383,7 @@ fn sub_cell_mirrors_under_a_sun_keep_what_they_receive() {
             direction: Vec3::new(0.3, -1.0, -0.4).normalize(),
             irradiance: Vec3::splat(2.0),
         });
-        let (_, _, out) = bake(&scene, &p(Iterations::Fixed(1)));
+        let (_, _, out) = propagate(&scene, &p(Iterations::Fixed(1)));
         let e = &out.energy;
         eprintln!(
             "side {side} under a sun: first iteration {:.4}",

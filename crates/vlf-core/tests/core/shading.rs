@@ -3,11 +3,11 @@
 //! vertex colours multiplying the albedo in the bake and the path tracer, texture slots reading
 //! the set they name, and the light field's file carrying all of it.
 
+use crate::bakes::{Propagation, under_gather};
 use glam::{Vec2, Vec3, Vec4};
-use vlf_core::bake::{BakeScene, reference};
-use vlf_core::directions::DirectionSet;
+use vlf_core::bake::BakeScene;
 use vlf_core::format;
-use vlf_core::gather::{Converged, Gathered, final_gather};
+use vlf_core::gather::{Gathered, final_gather};
 use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
 use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings, render};
 use vlf_core::scene::{Corners, FilterMode, Scene, SceneBuilder, Sun, TexRef, Texture, WrapMode};
@@ -15,28 +15,8 @@ use vlf_core::scene::{Corners, FilterMode, Scene, SceneBuilder, Sun, TexRef, Tex
 /// Propagates `scene` at small settings and gathers it (fixed sampling, `points` points and
 /// rays per texel, texel edge `texel` in VLF units).
 fn bake_and_gather(scene: &Scene, sky: Vec3, texel: f32, points: u32) -> Gathered {
-    let params = BakeParams {
-        directions: 126,
-        resolution: 32,
-        tile: 4,
-        texel_scale: 1.0,
-        iterations: Iterations::Fixed(4),
-        sky,
-        perturb: 0,
-        ..BakeParams::paper()
-    };
-    let prep = BakeScene::new(scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let prop = reference::propagate(&prep, &set, &params);
-    let field = Converged {
-        prep: &prep,
-        irradiance: &prop.irradiance,
-        first_bounce: prop.first_bounce.as_deref(),
-        tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-        directions: &set,
-        sky,
-        ray_spacing: 1.0,
-    };
+    let p = Propagation::new(scene, &under_gather(sky, Iterations::Fixed(4)));
+    let field = p.converged(sky, 1.0);
     let gp = GatherParams {
         texel_scale: texel,
         indirect_texel_scale: 2.0 * texel,

@@ -1,21 +1,13 @@
 //! Physics of the CPU reference propagator against analytic answers.
 //! (The GPU propagator is checked against this reference in `tests/suite`.)
 
+use crate::bakes::params;
+use crate::scenes;
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::scene::SceneBuilder;
-
-fn small(directions: u32, resolution: u32, iterations: Iterations) -> BakeParams {
-    BakeParams {
-        directions,
-        resolution,
-        tile: 8,
-        iterations,
-        ..BakeParams::paper()
-    }
-}
 
 /// Area-weighted mean and max relative deviation from `want` over covered texels of `side`.
 fn face_stats(
@@ -47,16 +39,8 @@ fn face_stats(
 #[test]
 fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
     let (le, rho) = (Vec3::new(1.0, 0.5, 0.25), 0.5);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("furnace", Vec3::splat(rho), le);
-    b.aabox(
-        Vec3::new(-1.0, -0.7, -0.4),
-        Vec3::new(1.0, 0.7, 0.4),
-        true,
-        m,
-    );
-    let scene = b.build("furnace box");
-    let params = small(
+    let scene = scenes::furnace_box(le, rho);
+    let params = params(
         46,
         32,
         Iterations::Converge {
@@ -92,21 +76,10 @@ fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
 #[test]
 fn open_plane_under_sky_reads_albedo_times_sky() {
     let (sky, rho) = (Vec3::new(2.0, 1.0, 0.5), 0.6);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    let scene = b.build("sky plane");
+    let scene = scenes::sky_plane(rho);
     let params = BakeParams {
         sky,
-        ..small(46, 32, Iterations::Fixed(2))
+        ..params(46, 32, Iterations::Fixed(2))
     };
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
@@ -158,7 +131,7 @@ fn a_sun_lights_only_the_side_facing_it() {
         direction: travel,
         irradiance: e_sun,
     });
-    let params = small(46, 32, Iterations::Fixed(1));
+    let params = params(46, 32, Iterations::Fixed(1));
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, &params);
@@ -187,7 +160,7 @@ fn cornell_energy_balances_within_half_a_percent() {
         "/../../assets/cornell-box/cornell-box.gltf"
     );
     let scene = vlf_core::scene::load(std::path::Path::new(path)).unwrap();
-    let params = small(126, 32, Iterations::Fixed(4));
+    let params = params(126, 32, Iterations::Fixed(4));
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, &params);
@@ -219,7 +192,7 @@ fn propagation_is_bit_identical_whatever_the_thread_count() {
     let params = BakeParams {
         tile: 4,
         perturb: 1,
-        ..small(46, 16, Iterations::Fixed(3))
+        ..params(46, 16, Iterations::Fixed(3))
     };
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
@@ -276,7 +249,7 @@ fn parallel_squares_error(directions: u32, perturb: u32) -> (f64, f32) {
     let scene = b.build("parallel squares");
     let params = BakeParams {
         perturb,
-        ..small(directions, 64, Iterations::Fixed(1))
+        ..params(directions, 64, Iterations::Fixed(1))
     };
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
@@ -400,7 +373,7 @@ fn textured_texels_hold_the_texture_mean_over_their_area() {
     for t in &mut scene.triangles {
         t.uv = t.p.map(uv_of);
     }
-    let prep = BakeScene::new(&scene, &small(6, 16, Iterations::Fixed(1))).unwrap();
+    let prep = BakeScene::new(&scene, &params(6, 16, Iterations::Fixed(1))).unwrap();
     let f = prep.faces[0];
     let texture = &scene.textures[0];
     // Texture mean over each fully covered texel by a fine grid (64 × 64 points).

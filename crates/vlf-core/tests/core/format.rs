@@ -1,10 +1,8 @@
 //! The `.vlf` file: round trips, every rejection (message and path), atomic writes, the
 //! pinned on-disk layout, and the light-encoding error measurements of `docs/FORMAT.md`
-//! (`cargo test -p vlf-core --test format encoding_error -- --nocapture` prints the table).
+//! (`cargo test -p vlf-core --test core format::encoding_error -- --nocapture` prints the table).
 
-#[path = "../../../tests/src/scenes.rs"]
-#[allow(dead_code)]
-mod scenes;
+use crate::scenes;
 
 use std::fs;
 use std::path::{Path, PathBuf};

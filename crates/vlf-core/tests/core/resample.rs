@@ -3,6 +3,8 @@
 //! nothing, exactly, as its true reflected ray hits the rectangle or not), and two parallel
 //! mirrors (a geometric series).
 
+use crate::bakes;
+use crate::scenes::{hquad, metal};
 use glam::{Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference;
@@ -11,32 +13,14 @@ use vlf_core::lightfield::tiles::words_per_slot;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::psf::{PsfGrid, fixed_frame};
 use vlf_core::resample::resample_tiles;
-use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder};
-
-/// Horizontal quad at height y spanning [-s, s]², facing up or down.
-fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
-    let mut q = [
-        Vec3::new(-s, y, -s),
-        Vec3::new(-s, y, s),
-        Vec3::new(s, y, s),
-        Vec3::new(s, y, -s),
-    ];
-    if !up {
-        q.reverse();
-    }
-    b.quad(q, m);
-}
+use vlf_core::scene::{Scene, SceneBuilder};
 
 /// Every covered tile value of the scene's mirror faces after resampling, with the VLF point
 /// its cell's ray crosses the face at and the direction the value leaves along.
 fn resampled(scene: &Scene, sky: Vec3) -> Vec<(Vec3, Vec3, Vec3, u32)> {
     let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Fixed(2),
         sky,
-        ..BakeParams::paper()
+        ..bakes::params(46, 32, Iterations::Fixed(2))
     };
     let prep = BakeScene::new(scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
@@ -206,27 +190,12 @@ fn glossy_tiles_are_kept_and_rough_mirrors_reflect_their_albedo() {
         (0.04, SpecularModel::Mirror { alpha: 0.04 }),
     ] {
         let mut b = SceneBuilder::new();
-        let m = b.material(Material {
-            name: "rough metal".into(),
-            base_color: Vec3::ONE,
-            base_color_texture: None,
-            emission: Vec3::ZERO,
-            emissive_texture: None,
-            double_sided: true,
-            kind: MaterialKind::Mirror,
-            metallic: 1.0,
-            roughness: alpha.sqrt(),
-            transparency: Default::default(),
-        });
+        let m = metal(&mut b, "rough metal", alpha);
         hquad(&mut b, 0.0, 1.0, true, m);
         let scene = b.build("glossy plane");
         let params = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            iterations: Iterations::Fixed(1),
             sky,
-            ..BakeParams::paper()
+            ..bakes::params(46, 32, Iterations::Fixed(1))
         };
         let mut prep = BakeScene::new(&scene, &params).unwrap();
         prep.lobes[0] = model;

@@ -10,12 +10,13 @@
 //! the same light field; the offending input is saved and its path printed.
 //!
 //! Run time: `VLF_FUZZ_SECONDS` (default 3 s). Seed: `VLF_FUZZ_SEED` (default fixed).
-//! `VLF_FUZZ_SECONDS=60 cargo test --release -p vlf-core --test fuzz_format -- --nocapture`
+//! `VLF_FUZZ_SECONDS=60 cargo test --release -p vlf-core --test core fuzz_format:: -- --nocapture`
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use crate::common::Rng;
 use glam::{Quat, Vec3};
 use vlf_core::directions::DirectionSet;
 use vlf_core::format;
@@ -27,54 +28,6 @@ use vlf_core::lightfield::{
     NO_TEXTURE, Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
 };
 use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
-
-/// xorshift64* — deterministic, dependency-free.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-    fn chance(&mut self, one_in: usize) -> bool {
-        self.below(one_in) == 0
-    }
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    /// A value likely to hit an edge: small, near a power of two, maximal, or random.
-    fn interesting_u64(&mut self, near: u64) -> u64 {
-        match self.below(9) {
-            0 => 0,
-            1 => 1,
-            2 => near.wrapping_add(1),
-            3 => near.wrapping_sub(1),
-            4 => near.wrapping_add(16),
-            5 => near.wrapping_sub(16),
-            6 => u64::MAX >> self.below(64),
-            7 => 1 << self.below(64),
-            _ => self.next(),
-        }
-    }
-    fn interesting_u32(&mut self, near: u32) -> u32 {
-        match self.below(6) {
-            0 => f32::NAN.to_bits(),
-            1 => f32::INFINITY.to_bits(),
-            2 => 0x7C00_7C00, // two half-float infinities
-            3 => 0x8000_8000, // two negative half zeros
-            _ => self.interesting_u64(u64::from(near)) as u32,
-        }
-    }
-}
 
 // ----- seeds --------------------------------------------------------------------------------
 
@@ -618,8 +571,18 @@ fn fuzz_read_bytes() {
         assert_eq!(check(s), Ok(None), "a seed is rejected");
     }
     let mut rng = Rng(seed | 1);
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
+    // Silence the panics this test provokes (on its thread and on the unnamed rayon workers
+    // `read_bytes` uses), not those of the other tests running beside it in this binary.
+    let hook: std::sync::Arc<dyn Fn(&std::panic::PanicHookInfo) + Send + Sync> =
+        std::panic::take_hook().into();
+    let fuzzer = std::thread::current().id();
+    let others = hook.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        let t = std::thread::current();
+        if t.id() != fuzzer && t.name().is_some() {
+            others(info);
+        }
+    }));
     let deadline = Instant::now() + Duration::from_secs_f64(seconds);
     let (mut executed, mut accepted) = (0u64, 0u64);
     let mut rejected = std::collections::BTreeMap::<String, u64>::new();
@@ -648,7 +611,8 @@ fn fuzz_read_bytes() {
             }
         }
     }
-    std::panic::set_hook(hook);
+    let _ = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| hook(info)));
     println!("fuzz_format: {executed} inputs in {seconds} s ({accepted} accepted), seed {seed:#x}");
     println!("rejections by error variant: {rejected:?}");
     if let Some((e, log, input)) = failure {

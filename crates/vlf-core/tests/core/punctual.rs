@@ -8,6 +8,7 @@
 //! integrated here by a 32 × 32 midpoint rule (its own error is far below 1e-4 at these sizes);
 //! the tolerance the issue sets is 1 %.
 
+use crate::bakes::Propagation;
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, punctual, reference};
 use vlf_core::directions::DirectionSet;
@@ -221,17 +222,10 @@ fn a_point_light_in_a_closed_box_conserves_energy() {
 
 fn gather(scene: &Scene, gp: &GatherParams) -> Gathered {
     let p = params(Iterations::Fixed(2));
-    let prep = BakeScene::new(scene, &p).unwrap();
-    let set = DirectionSet::at_least(p.directions).unwrap();
-    let prop = reference::propagate(&prep, &set, &p);
+    let prop = Propagation::new(scene, &p);
     let field = Converged {
-        prep: &prep,
-        irradiance: &prop.irradiance,
-        first_bounce: prop.first_bounce.as_deref(),
         tiles: None,
-        directions: &set,
-        sky: Vec3::ZERO,
-        ray_spacing: 2.0 / p.resolution as f32,
+        ..prop.converged(Vec3::ZERO, 2.0 / p.resolution as f32)
     };
     final_gather(scene, &field, gp, 0).unwrap()
 }

@@ -5,26 +5,9 @@
 
 use std::path::PathBuf;
 
+use crate::common::base64;
 use glam::Vec3;
 use vlf_core::scene::{self, SceneError, Translucency, dipole};
-
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                A[((n >> (18 - 6 * i)) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    s
-}
 
 /// A one-triangle glTF whose material has `extensions` (a JSON object's body), written to a
 /// fresh file named after `test`.

@@ -2,6 +2,8 @@
 //! form factor by quadrature), properties of the estimated matrix, the two CPU solvers, and
 //! agreement with the VLF CPU reference on the Cornell box.
 
+use crate::bakes;
+use crate::scenes;
 use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
@@ -13,15 +15,15 @@ use vlf_core::scene::{Scene, SceneBuilder, Sun};
 
 fn params(resolution: u32, texel_scale: f32) -> BakeParams {
     BakeParams {
-        directions: 46,
-        resolution,
-        tile: 8,
         texel_scale,
-        iterations: Iterations::Converge {
-            threshold: 1e-4,
-            max: 100,
-        },
-        ..BakeParams::paper()
+        ..bakes::params(
+            46,
+            resolution,
+            Iterations::Converge {
+                threshold: 1e-4,
+                max: 100,
+            },
+        )
     }
 }
 
@@ -61,15 +63,7 @@ fn sides(prep: &BakeScene, ff: &FormFactors) -> Vec<u32> {
 #[test]
 fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
     let (le, rho) = (Vec3::new(1.0, 0.5, 0.25), 0.8);
-    let mut b = SceneBuilder::new();
-    let m = b.diffuse("furnace", Vec3::splat(rho), le);
-    b.aabox(
-        Vec3::new(-1.0, -0.7, -0.4),
-        Vec3::new(1.0, 0.7, 0.4),
-        true,
-        m,
-    );
-    let scene = b.build("furnace box");
+    let scene = scenes::furnace_box(le, rho);
     let p = params(32, 2.0);
     let prep = BakeScene::new(&scene, &p).unwrap();
     let ff = radiosity::form_factors(&prep, Vec3::ZERO, &settings(64)).unwrap();

@@ -3,6 +3,7 @@
 //! against the dipole's total diffuse reflectance; thin diffuse transmission against its
 //! albedos.
 
+use crate::bakes;
 use glam::{Vec2, Vec3};
 use vlf_core::pathtrace::{PreparedScene, Rng, sampling};
 use vlf_core::scene::{Scene, SceneBuilder, Translucency, dipole};
@@ -168,14 +169,7 @@ fn marble_block_under_sky_pipeline_against_walk() {
     );
     let scene = b.build("marble under the sky");
     let params = BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
         sky: Vec3::ONE,
-        iterations: Iterations::Converge {
-            threshold: 1e-3,
-            max: 40,
-        },
         final_gather: Some(GatherParams {
             texel_scale: 0.5,
             indirect_texel_scale: 2.0,
@@ -185,7 +179,14 @@ fn marble_block_under_sky_pipeline_against_walk() {
             sampling: Sampling::FIXED,
             denoise: vlf_core::lightfield::Denoiser::Off,
         }),
-        ..BakeParams::paper()
+        ..bakes::params(
+            46,
+            32,
+            Iterations::Converge {
+                threshold: 1e-3,
+                max: 40,
+            },
+        )
     };
     let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();
     let irr = lf.irradiance.to_f32();

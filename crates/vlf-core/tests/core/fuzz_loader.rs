@@ -11,110 +11,27 @@
 //! test; the offending input is saved and its path printed.
 //!
 //! Run time: `VLF_FUZZ_SECONDS` (default 3 s). Seed: `VLF_FUZZ_SEED` (default fixed).
-//! `VLF_FUZZ_SECONDS=60 cargo test -p vlf-core --test fuzz_loader -- --nocapture`
+//! `VLF_FUZZ_SECONDS=60 cargo test -p vlf-core --test core fuzz_loader:: -- --nocapture`
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use crate::common::{Rng, base64, glb, png_rgb};
 use vlf_core::scene::{self, Scene};
-
-/// xorshift64* — deterministic, dependency-free.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-
-    fn chance(&mut self, one_in: usize) -> bool {
-        self.below(one_in) == 0
-    }
-
-    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
-        &items[self.below(items.len())]
-    }
-}
 
 // ----- seeds --------------------------------------------------------------------------
 
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for i in 0..4 {
-            s.push(if i <= c.len() {
-                A[((n >> (18 - 6 * i)) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    s
-}
-
-/// A minimal uncompressed RGB PNG.
-fn png_rgb(width: u32, height: u32, seed: u8) -> Vec<u8> {
-    fn crc32(data: &[u8]) -> u32 {
-        let mut c = 0xFFFF_FFFFu32;
-        for &b in data {
-            c ^= u32::from(b);
-            for _ in 0..8 {
-                c = if c & 1 != 0 {
-                    0xEDB8_8320 ^ (c >> 1)
-                } else {
-                    c >> 1
-                };
-            }
-        }
-        !c
-    }
-    let mut raw = Vec::new();
-    for y in 0..height {
-        raw.push(0u8);
-        for x in 0..width * 3 {
-            raw.push((x * 37 + y * 11) as u8 ^ seed);
-        }
-    }
-    let mut z = vec![0x78, 0x01, 1];
-    z.extend_from_slice(&(raw.len() as u16).to_le_bytes());
-    z.extend_from_slice(&(!(raw.len() as u16)).to_le_bytes());
-    z.extend_from_slice(&raw);
-    let (mut a, mut b) = (1u32, 0u32);
-    for &x in &raw {
-        a = (a + u32::from(x)) % 65521;
-        b = (b + a) % 65521;
-    }
-    z.extend_from_slice(&((b << 16) | a).to_be_bytes());
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    let mut chunk = |kind: &[u8], data: &[u8]| {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend_from_slice(data);
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32(&body).to_be_bytes());
-    };
-    let mut ihdr = width.to_be_bytes().to_vec();
-    ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
-    chunk(b"IHDR", &ihdr);
-    chunk(b"IDAT", &z);
-    chunk(b"IEND", &[]);
-    out
+/// A `width × height` RGB PNG of a fixed pattern keyed by `seed`.
+fn pattern_png(width: u32, height: u32, seed: u8) -> Vec<u8> {
+    let rgb: Vec<[u8; 3]> = (0..height)
+        .flat_map(|y| {
+            (0..width).map(move |x| {
+                std::array::from_fn(|c| ((3 * x + c as u32) * 37 + y * 11) as u8 ^ seed)
+            })
+        })
+        .collect();
+    png_rgb(width, height, &rgb)
 }
 
 /// The hand-made seed scene: (JSON without the buffer entry, binary data).
@@ -180,7 +97,7 @@ fn seed_scene(glb: bool) -> (String, Vec<u8>) {
         .collect::<Vec<_>>(),
         None,
     );
-    let png = png_rgb(3, 2, 7);
+    let png = pattern_png(3, 2, 7);
     let v_png = view(&mut bin, &png, None);
     let accessors = format!(
         r#"[{{"bufferView":{v_inter},"componentType":5126,"count":8,"type":"VEC3","min":[0,0,0],"max":[1,1,1]}},
@@ -198,7 +115,7 @@ fn seed_scene(glb: bool) -> (String, Vec<u8>) {
     } else {
         format!(
             r#"{{"uri":"data:image/png;base64,{}"}}"#,
-            base64(&png_rgb(2, 2, 99))
+            base64(&pattern_png(2, 2, 99))
         )
     };
     let rest = format!(
@@ -253,28 +170,6 @@ fn seed_scene(glb: bool) -> (String, Vec<u8>) {
         format!(r#"{{"asset":{{"version":"2.0"}},"buffers":[{buffer}],{rest}}}"#),
         bin,
     )
-}
-
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut j = json.as_bytes().to_vec();
-    while !j.len().is_multiple_of(4) {
-        j.push(b' ');
-    }
-    let mut b = bin.to_vec();
-    while !b.len().is_multiple_of(4) {
-        b.push(0);
-    }
-    let total = 12 + 8 + j.len() + 8 + b.len();
-    let mut out = b"glTF".to_vec();
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&j);
-    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&b);
-    out
 }
 
 struct Seed {
@@ -686,7 +581,7 @@ fn fuzz_loader() {
     );
 }
 
-/// Replays saved crash inputs: `VLF_FUZZ_REPLAY=path cargo test --test fuzz_loader replay`.
+/// Replays saved crash inputs: `VLF_FUZZ_REPLAY=path cargo test --test core fuzz_loader::replay`.
 #[test]
 fn replay() {
     let Ok(path) = std::env::var("VLF_FUZZ_REPLAY") else {

@@ -3,11 +3,12 @@
 //! and enclosed sample points, and thread-count independence.
 
 use glam::{Vec3, Vec4};
-use vlf_core::bake::{BakeScene, Quality, reference};
-use vlf_core::directions::DirectionSet;
-use vlf_core::gather::{Converged, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
+use vlf_core::bake::Quality;
+use vlf_core::gather::{Gathered, final_gather};
+use vlf_core::lightfield::{GatherParams, Iterations};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
+
+use crate::bakes::{Propagation, under_gather};
 
 /// Propagates `scene` at small settings and gathers with `gp`.
 fn bake_and_gather(scene: &Scene, sky: Vec3, gp: &GatherParams, threads: usize) -> Gathered {
@@ -22,36 +23,16 @@ fn bake_and_gather_with_field(
     gp: &GatherParams,
     threads: usize,
 ) -> (Gathered, Gathered) {
-    let params = BakeParams {
-        directions: 126,
-        resolution: 32,
-        tile: 4,
-        texel_scale: 1.0,
-        iterations: Iterations::Fixed(6),
-        sky,
-        perturb: 0,
-        ..BakeParams::paper()
-    };
-    let prep = BakeScene::new(scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let prop = reference::propagate(&prep, &set, &params);
-    let field = Converged {
-        prep: &prep,
-        irradiance: &prop.irradiance,
-        first_bounce: prop.first_bounce.as_deref(),
-        tiles: prop.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-        directions: &set,
-        sky,
-        // Texel sizes in these tests are in VLF units.
-        ray_spacing: 1.0,
-    };
+    let p = Propagation::new(scene, &under_gather(sky, Iterations::Fixed(6)));
+    // Texel sizes in these tests are in VLF units.
+    let field = p.converged(sky, 1.0);
     let g = final_gather(scene, &field, gp, threads).unwrap();
     let stats = g.stats.clone();
     (
         g,
         Gathered {
-            atlas: prep.clone(),
-            irradiance: prop.irradiance.clone(),
+            atlas: p.prep.clone(),
+            irradiance: p.out.irradiance.clone(),
             stats,
             variance: None,
         },

@@ -2,11 +2,10 @@
 //! removes half its area in fine stripes passes half the light of an emitter behind it (the
 //! propagation, the final gather and the path tracer).
 
-#[path = "../../../tests/src/scenes.rs"]
-mod scenes;
-
+use crate::bakes;
+use crate::bakes::Propagation;
+use crate::scenes::{self, central_mean, receiver, striped_screen};
 use glam::Vec3;
-use scenes::{central_mean, receiver, striped_screen};
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
@@ -16,13 +15,9 @@ use vlf_core::scene::Scene;
 
 fn params() -> BakeParams {
     BakeParams {
-        directions: 246,
-        resolution: 64,
-        tile: 8,
         texel_scale: 2.0,
-        iterations: Iterations::Fixed(1),
         perturb: 0,
-        ..BakeParams::paper()
+        ..bakes::params(246, 64, Iterations::Fixed(1))
     }
 }
 
@@ -228,19 +223,7 @@ fn a_pane_passes_t_of_theta_of_a_sky_in_the_propagation() {
 /// over a grey floor under a sun and a sky, 3 iterations).
 #[test]
 fn panes_keep_the_energy_balance() {
-    let mut scene = scenes::pane_over_floor(true, 0.3);
-    for m in &mut scene.materials {
-        m.base_color = if m.name == "glass" {
-            Vec3::new(0.9, 0.7, 0.5)
-        } else {
-            Vec3::splat(0.6)
-        };
-    }
-    scene.suns.push(vlf_core::scene::Sun {
-        name: None,
-        direction: Vec3::new(0.5, -1.0, 0.2).normalize(),
-        irradiance: Vec3::splat(2.0),
-    });
+    let scene = scenes::tinted_pane_in_sun();
     let params = BakeParams {
         sky: Vec3::new(0.3, 0.4, 0.5),
         iterations: Iterations::Fixed(3),
@@ -270,54 +253,18 @@ fn panes_keep_the_energy_balance() {
 /// and a sun through it, T(θ) of its unobstructed irradiance.
 #[test]
 fn a_pane_passes_t_of_theta_in_the_final_gather() {
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 16,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = bakes::pane_gather();
     let gathered = |scene: &Scene, sky: Vec3| {
         let p = BakeParams { sky, ..params() };
-        let prep = BakeScene::new(scene, &p).unwrap();
-        let set = DirectionSet::at_least(p.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &p);
+        let out = Propagation::new(scene, &p);
         let field = Converged {
-            prep: &prep,
-            irradiance: &out.irradiance,
             first_bounce: None,
-            tiles: out.tiles.as_ref().map(|(i, v)| (i, v.as_slice())),
-            directions: &set,
-            sky,
-            ray_spacing: 2.0 / p.resolution as f32,
+            ..out.converged(sky, 2.0 / p.resolution as f32)
         };
         let g = final_gather(scene, &field, &gp, 0).unwrap();
         central_mean(scene, &g.atlas, &g.irradiance, receiver(scene), 0.25)
     };
-    let scene = scenes::pane_over_floor(true, 0.02);
-    let got = gathered(&scene, Vec3::ONE);
-    let want = scenes::pane_sky_irradiance(0.02) as f32;
-    eprintln!("final gather, sky through a pane: {got:.4} vs {want:.4}");
-    assert!((got / want - 1.0).abs() < 0.01, "{got} vs {want}");
-    let th = 45f32.to_radians();
-    let mut e = Vec::new();
-    for pane in [false, true] {
-        let mut scene = scenes::pane_over_floor(pane, 0.02);
-        scene.suns.push(vlf_core::scene::Sun {
-            name: None,
-            direction: Vec3::new(th.sin(), -th.cos(), 0.0),
-            irradiance: Vec3::ONE,
-        });
-        e.push(gathered(&scene, Vec3::ZERO));
-    }
-    let want = 1.0 - vlf_core::scene::pane_reflectance(th.cos(), 1.5);
-    eprintln!(
-        "final gather, sun at 45°: {:.4} vs T {want:.4}",
-        e[1] / e[0]
-    );
-    assert!((e[1] / e[0] / want - 1.0).abs() < 0.01);
+    scenes::check_pane_gather("final gather", gathered);
 }
 
 /// The path tracer looks at the sky through the pane from under it: T(θ) × the sky at 0°, 45°

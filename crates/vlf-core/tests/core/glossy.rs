@@ -1,6 +1,7 @@
 //! Glossy (GGX metal) surfaces in the CPU reference propagator (issue 16): the furnace, the
 //! lobe's normalisation, energy. (The GPU propagator is checked against it in `tests/suite`.)
 
+use crate::scenes::{metal, metal_plane};
 use glam::Vec3;
 use vlf_core::bake::glossy::{self, SpecularModel};
 use vlf_core::bake::reference::{self, Adjacency, Propagated};
@@ -10,38 +11,6 @@ use vlf_core::gather::field::Tiles;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::material::{GgxAlbedo, ggx_metal};
 use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder, Sun};
-
-/// A white GGX metal of roughness α (reflectance 1).
-fn metal(b: &mut SceneBuilder, alpha: f32) -> u32 {
-    b.material(Material {
-        name: format!("metal α {alpha}"),
-        base_color: Vec3::ONE,
-        base_color_texture: None,
-        emission: Vec3::ZERO,
-        emissive_texture: None,
-        double_sided: true,
-        kind: MaterialKind::Mirror,
-        metallic: 1.0,
-        roughness: alpha.sqrt(),
-        transparency: Default::default(),
-    })
-}
-
-/// A horizontal metal square at y = 0 (the scene's only face).
-fn plane(alpha: f32) -> Scene {
-    let mut b = SceneBuilder::new();
-    let m = metal(&mut b, alpha);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-    b.build("metal plane")
-}
 
 fn sun(direction: Vec3, irradiance: f32) -> Sun {
     Sun {
@@ -106,7 +75,7 @@ fn bake(
 fn glossy_furnace_reflects_directional_albedo_times_sky() {
     let sky = Vec3::new(1.0, 0.5, 0.25);
     for alpha in [0.05f32, 0.2, 0.5] {
-        let scene = plane(alpha);
+        let scene = metal_plane(alpha);
         let p = params(246, sky, Iterations::Fixed(1));
         let set = DirectionSet::at_least(p.directions).unwrap();
         let chosen = glossy::model(&scene.materials[0], Some(glossy::spacing(&set)));
@@ -161,7 +130,7 @@ fn lobe_weights_conserve_energy_and_pass_the_furnace() {
     let set = DirectionSet::at_least(246).unwrap();
     let adjacency = Adjacency::new(&set);
     let mut b = SceneBuilder::new();
-    let m = metal(&mut b, 0.2);
+    let m = metal(&mut b, "metal α 0.2", 0.2);
     // A tilted square (z = 0.3 x), lit by a sun too.
     b.quad(
         [
@@ -236,7 +205,7 @@ fn lobe_weights_conserve_energy_and_pass_the_furnace() {
 fn glossy_energy_balances() {
     let sky = Vec3::new(1.0, 0.5, 0.25);
     let imbalance = |alpha: f32, model: SpecularModel, with_sun: bool| {
-        let mut scene = plane(alpha);
+        let mut scene = metal_plane(alpha);
         let mut p = params(126, sky, Iterations::Fixed(3));
         if with_sun {
             scene.suns.push(sun(Vec3::new(0.4, -1.0, 0.1), 3.0));
@@ -349,7 +318,7 @@ fn rules_choose_the_model_by_lobe_width() {
 #[test]
 fn folded_metal_renders_with_its_baked_albedo() {
     let alpha = 0.81; // roughness 0.9: wider than any direction spacing
-    let scene = plane(alpha);
+    let scene = metal_plane(alpha);
     let params = BakeParams {
         final_gather: None,
         ..params(126, Vec3::ONE, Iterations::Fixed(2))
@@ -373,7 +342,7 @@ fn folded_metal_renders_with_its_baked_albedo() {
 fn textured_metal_reflects_with_its_texture_mean() {
     use glam::{Vec2, Vec4};
     use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
-    let mut scene = plane(0.0);
+    let mut scene = metal_plane(0.0);
     scene.materials[0].base_color = Vec3::splat(0.8);
     scene.materials[0].base_color_texture = Some(TexRef {
         index: 0,

@@ -8,7 +8,7 @@
 //! lines before any scene then moved on purpose: they now carry the preset's own threshold and,
 //! with the gather, its gather directions, as the scene rules always did). After a
 //! change that is meant to move the parameters, rewrite it with `VLF_BLESS_PRESETS=1 cargo test
-//! -p vlf-core --test presets` and let the diff show what moved.
+//! -p vlf-core --test core presets::` and let the diff show what moved.
 //!
 //! The same test binary writes and checks the preset tables of `docs/QUALITY.md` from
 //! [`Quality::preset`], so the documentation states each number once and true.
@@ -102,7 +102,7 @@ fn quality_md() -> PathBuf {
 }
 
 const BEGIN: &str = "<!-- presets: generated from vlf_core::bake::quality::Preset, checked by \
-                     crates/vlf-core/tests/presets.rs (VLF_BLESS_PRESETS=1 rewrites it) -->";
+                     crates/vlf-core/tests/core/presets.rs (VLF_BLESS_PRESETS=1 rewrites it) -->";
 const END: &str = "<!-- end of presets -->";
 
 /// `1000000` as `1,000,000`.

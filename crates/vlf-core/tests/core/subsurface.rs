@@ -2,6 +2,7 @@
 //! the hierarchical links against the analytic answers of a semi-infinite slab of Jensen's
 //! marble, and thin diffuse transmission in a whole propagation.
 
+use crate::bakes;
 use std::time::Instant;
 
 use glam::{Vec3, Vec4};
@@ -237,7 +238,7 @@ fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) ->
 fn lamp_in_diffuse_transmitting_shade() {
     use vlf_core::bake::reference;
     use vlf_core::directions::DirectionSet;
-    use vlf_core::lightfield::{BakeParams, Iterations};
+    use vlf_core::lightfield::Iterations;
     let c = Vec3::new(0.9, 0.6, 0.3);
     let mut b = SceneBuilder::new();
     let room = b.diffuse("room", Vec3::ZERO, Vec3::ZERO);
@@ -254,16 +255,14 @@ fn lamp_in_diffuse_transmitting_shade() {
     b.aabox(Vec3::splat(-0.4), Vec3::splat(0.4), false, shade);
     b.aabox(Vec3::splat(-0.25), Vec3::splat(0.25), false, lamp);
     let scene = b.build("lamp in shade");
-    let params = BakeParams {
-        directions: 126,
-        resolution: 64,
-        tile: 8,
-        iterations: Iterations::Converge {
+    let params = bakes::params(
+        126,
+        64,
+        Iterations::Converge {
             threshold: 1e-4,
             max: 20,
         },
-        ..BakeParams::paper()
-    };
+    );
     let prep = BakeScene::new(&scene, &params).unwrap();
     let set = DirectionSet::at_least(params.directions).unwrap();
     let out = reference::propagate(&prep, &set, &params);
@@ -323,6 +322,37 @@ fn lamp_in_diffuse_transmitting_shade() {
     assert!(out.energy.relative_imbalance().abs() < 0.02);
 }
 
+/// A closed 2-unit room facing in (grey 0.5) with a square lamp of half-side `lamp` (radiance 5)
+/// just under its ceiling, around a 0.6 × 0.6 × 0.6 box above its floor made of the material
+/// `box_material` adds (the third); the scene and that material.
+fn room_with_a_box(
+    name: &str,
+    lamp: f32,
+    box_material: impl FnOnce(&mut SceneBuilder) -> u32,
+) -> (Scene, u32) {
+    let mut b = SceneBuilder::new();
+    let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
+    let light = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
+    let m = box_material(&mut b);
+    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
+    b.quad(
+        [
+            Vec3::new(-lamp, 0.99, -lamp),
+            Vec3::new(lamp, 0.99, -lamp),
+            Vec3::new(lamp, 0.99, lamp),
+            Vec3::new(-lamp, 0.99, lamp),
+        ],
+        light,
+    );
+    b.aabox(
+        Vec3::new(-0.3, -0.9, -0.3),
+        Vec3::new(0.3, -0.3, 0.3),
+        false,
+        m,
+    );
+    (b.build(name), m)
+}
+
 /// A marble cube lit by a lamp in a grey room, baked twice: translucent, and as an opaque
 /// diffuse cube. The energy bookkeeping with the scattered light (moved from absorbed to
 /// unshot each iteration) balances as well as the opaque bake's does (whose imbalance, about
@@ -332,42 +362,23 @@ fn lamp_in_diffuse_transmitting_shade() {
 fn marble_cube_in_room_balances_energy() {
     use vlf_core::bake::reference;
     use vlf_core::directions::DirectionSet;
-    use vlf_core::lightfield::{BakeParams, Iterations};
+    use vlf_core::lightfield::Iterations;
     let bake = |translucent: bool| {
-        let mut b = SceneBuilder::new();
-        let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
-        let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
-        let cube = b.diffuse("marble", Vec3::splat(0.8), Vec3::ZERO);
-        if translucent {
-            b.translucent(cube, marble());
-        }
-        b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
-        b.quad(
-            [
-                Vec3::new(-0.2, 0.99, -0.2),
-                Vec3::new(0.2, 0.99, -0.2),
-                Vec3::new(0.2, 0.99, 0.2),
-                Vec3::new(-0.2, 0.99, 0.2),
-            ],
-            lamp,
-        );
-        b.aabox(
-            Vec3::new(-0.3, -0.9, -0.3),
-            Vec3::new(0.3, -0.3, 0.3),
-            false,
-            cube,
-        );
-        let scene = b.build("marble cube");
-        let params = BakeParams {
-            directions: 46,
-            resolution: 32,
-            tile: 8,
-            iterations: Iterations::Converge {
+        let (scene, _) = room_with_a_box("marble cube", 0.2, |b| {
+            let cube = b.diffuse("marble", Vec3::splat(0.8), Vec3::ZERO);
+            if translucent {
+                b.translucent(cube, marble());
+            }
+            cube
+        });
+        let params = bakes::params(
+            46,
+            32,
+            Iterations::Converge {
                 threshold: 1e-3,
                 max: 40,
             },
-            ..BakeParams::paper()
-        };
+        );
         let prep = BakeScene::new(&scene, &params).unwrap();
         let set = DirectionSet::at_least(params.directions).unwrap();
         let out = reference::propagate(&prep, &set, &params);
@@ -441,42 +452,18 @@ fn opaque_scenes_build_no_links() {
 #[test]
 fn paper_box_through_the_final_gather() {
     use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
-    let mut b = SceneBuilder::new();
-    let room = b.diffuse("room", Vec3::splat(0.5), Vec3::ZERO);
-    let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
-    let paper = b.diffuse("paper", Vec3::splat(0.8), Vec3::ZERO);
-    b.translucent(
-        paper,
-        Translucency::ThinDiffuseTransmission {
-            factor: 0.5,
-            color: Vec3::ONE,
-        },
-    );
-    b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.99, -0.3),
-            Vec3::new(0.3, 0.99, -0.3),
-            Vec3::new(0.3, 0.99, 0.3),
-            Vec3::new(-0.3, 0.99, 0.3),
-        ],
-        lamp,
-    );
-    b.aabox(
-        Vec3::new(-0.3, -0.9, -0.3),
-        Vec3::new(0.3, -0.3, 0.3),
-        false,
-        paper,
-    );
-    let scene = b.build("paper box");
+    let (scene, paper) = room_with_a_box("paper box", 0.3, |b| {
+        let paper = b.diffuse("paper", Vec3::splat(0.8), Vec3::ZERO);
+        b.translucent(
+            paper,
+            Translucency::ThinDiffuseTransmission {
+                factor: 0.5,
+                color: Vec3::ONE,
+            },
+        );
+        paper
+    });
     let params = |gather: bool| BakeParams {
-        directions: 46,
-        resolution: 32,
-        tile: 8,
-        iterations: Iterations::Converge {
-            threshold: 1e-3,
-            max: 40,
-        },
         final_gather: gather.then_some(GatherParams {
             texel_scale: 1.0,
             indirect_texel_scale: 2.0,
@@ -486,7 +473,14 @@ fn paper_box_through_the_final_gather() {
             sampling: Sampling::FIXED,
             denoise: vlf_core::lightfield::Denoiser::Off,
         }),
-        ..BakeParams::paper()
+        ..bakes::params(
+            46,
+            32,
+            Iterations::Converge {
+                threshold: 1e-3,
+                max: 40,
+            },
+        )
     };
     // Mean exitance of the paper's four vertical faces' outsides.
     let shown = |gather: bool| {
