@@ -136,13 +136,17 @@ fn presets_markdown() -> String {
     for q in Quality::ALL {
         let p = q.preset();
         s += &format!(
-            "| {} | {} / {} | {}–{} (rooms lit by a sky: up to {}) | {} | {}×{} rays | {:e} of emitted | {} | {} |\n",
+            "| {} | {} / {} | {}–{}{} | {} | {}×{} rays | {:e} of emitted | {} | {} |\n",
             q.name(),
             set_len(p.gather_directions),
             set_len(p.directions),
             p.resolution.0,
             p.resolution.1,
-            p.sky_interior_rays,
+            if p.sky_interior_rays > p.resolution.1 {
+                format!(" (rooms lit by a sky: up to {})", p.sky_interior_rays)
+            } else {
+                String::new()
+            },
             p.tile,
             p.texel_scale,
             p.texel_scale,
