@@ -47,15 +47,7 @@ const MAX_MEAN: f64 = 1e-4;
 const MAX_BEYOND: f64 = 0.01;
 
 pub(crate) fn gp() -> GatherParams {
-    GatherParams {
-        texel_scale: 1.0,
-        indirect_texel_scale: 2.0,
-        light_samples: 16,
-        direct_rays: 9,
-        indirect_rays: 16,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    vlf_tests::bakes::fixed_gather(1.0, 2.0, [16, 9, 16])
 }
 
 /// The gather settings `vlf-bake bake` picks for `scene` by default (`--quality auto`, from

@@ -24,8 +24,8 @@ use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEn
 use vlf_core::hash;
 use vlf_core::lightfield::encoding::f16_encode;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, LightField,
-    NO_TEXTURE, Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, LightField, NO_TEXTURE,
+    Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
 };
 use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
 
@@ -152,15 +152,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut R
     };
     let params = BakeParams {
         directions: 6,
-        final_gather: (textures > 0).then_some(GatherParams {
-            texel_scale: 0.5,
-            indirect_texel_scale: 1.0,
-            light_samples: 16,
-            direct_rays: 4,
-            indirect_rays: 64,
-            sampling: vlf_core::lightfield::Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: (textures > 0).then_some(crate::bakes::fixed_gather(0.5, 1.0, [16, 4, 64])),
         ..BakeParams::paper()
     };
     LightField {

@@ -40,15 +40,7 @@ fn bake_and_gather_with_field(
 }
 
 fn gp(texel: f32, indirect: f32, light: u32, rays: u32) -> GatherParams {
-    GatherParams {
-        texel_scale: texel,
-        indirect_texel_scale: indirect,
-        light_samples: light,
-        direct_rays: light.div_ceil(4),
-        indirect_rays: rays,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    crate::bakes::fixed_gather(texel, indirect, [light, light.div_ceil(4), rays])
 }
 
 /// (texel index, VLF centre, irradiance) of every covered texel of `face` on `side`.
@@ -392,15 +384,7 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
     // samples and cosine rays 4 : 1 as in the default bake (64 and 16), 16× as many so that the
     // texel one out, lit mainly by the few light samples that land on a side, is measured.
     let step = 0.05f32;
-    let p = GatherParams {
-        texel_scale: step * xf.scale,
-        indirect_texel_scale: 2.0 * step * xf.scale,
-        light_samples: 1024,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let p = crate::bakes::fixed_gather(step * xf.scale, 2.0 * step * xf.scale, [1024, 256, 4]);
     let g = bake_and_gather(&scene, Vec3::ZERO, &p, 0);
     let ceiling = face_with_normal(&scene, Vec3::NEG_Y);
     let f = &g.atlas.faces[ceiling];

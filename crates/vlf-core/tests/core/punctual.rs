@@ -13,7 +13,7 @@ use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, punctual, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
 use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings, render};
 use vlf_core::scene::{PunctualKind, PunctualLight, Scene, SceneBuilder};
 
@@ -231,15 +231,7 @@ fn gather(scene: &Scene, gp: &GatherParams) -> Gathered {
 }
 
 fn fixed() -> GatherParams {
-    GatherParams {
-        texel_scale: 0.5,
-        indirect_texel_scale: 2.0,
-        light_samples: 64,
-        direct_rays: 16,
-        indirect_rays: 16,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    crate::bakes::fixed_gather(0.5, 2.0, [64, 16, 16])
 }
 
 /// The default guided and adaptive gather (with its denoiser), at the test's texel sizes.

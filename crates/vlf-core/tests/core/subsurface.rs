@@ -451,7 +451,7 @@ fn opaque_scenes_build_no_links() {
 /// fraction of the light the lit top passes through them.
 #[test]
 fn paper_box_through_the_final_gather() {
-    use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+    use vlf_core::lightfield::{BakeParams, Iterations};
     let (scene, paper) = room_with_a_box("paper box", 0.3, |b| {
         let paper = b.diffuse("paper", Vec3::splat(0.8), Vec3::ZERO);
         b.translucent(
@@ -464,15 +464,7 @@ fn paper_box_through_the_final_gather() {
         paper
     });
     let params = |gather: bool| BakeParams {
-        final_gather: gather.then_some(GatherParams {
-            texel_scale: 1.0,
-            indirect_texel_scale: 2.0,
-            light_samples: 16,
-            direct_rays: 16,
-            indirect_rays: 64,
-            sampling: Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: gather.then_some(crate::bakes::fixed_gather(1.0, 2.0, [16, 16, 64])),
         ..bakes::params(
             46,
             32,
