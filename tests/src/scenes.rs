@@ -9,6 +9,27 @@ use vlf_core::scene::{
     SceneBuilder, TexRef, Texture, Transparency, WrapMode,
 };
 
+/// An `n × n`-texel checkerboard texture of `cell × cell`-texel squares: `even` where the
+/// square's column + row is even, else `odd` (repeating, linear filter).
+pub fn checker(n: u32, cell: u32, even: Vec4, odd: Vec4) -> Texture {
+    Texture {
+        name: None,
+        width: n,
+        height: n,
+        pixels: (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n / cell, i / n / cell);
+                if (x + y).is_multiple_of(2) { even } else { odd }
+            })
+            .collect(),
+        has_alpha: false,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        filter: FilterMode::Linear,
+        gltf_texture: 0,
+    }
+}
+
 /// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
 pub fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
     b.quad([o, o + e1, o + e1 + e2, o + e2], m);

@@ -114,15 +114,7 @@ fn a_sun_lights_only_the_side_facing_it() {
     let rho = 0.5;
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("sun plane");
     let e_sun = Vec3::new(3.0, 2.0, 1.0);
     let travel = Vec3::new(0.5, -0.75f32.sqrt(), 0.0); // 30° from the vertical, downwards
@@ -324,7 +316,7 @@ fn form_factor_point_to_square(x: f32, z: f32, s: f32, h: f32) -> f32 {
 #[test]
 fn textured_texels_hold_the_texture_mean_over_their_area() {
     use glam::Vec2;
-    use vlf_core::scene::{FilterMode, Material, MaterialKind, TexRef, Texture, WrapMode};
+    use vlf_core::scene::{Material, MaterialKind, TexRef};
     let (base, le) = (0.8f32, 2.0f32);
     let mut b = SceneBuilder::new();
     let tex = Some(TexRef {
@@ -343,31 +335,12 @@ fn textured_texels_hold_the_texture_mean_over_their_area() {
         roughness: 1.0,
         transparency: Default::default(),
     });
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("checker");
     // 16 × 16 squares of 0 and 1 (mean ½), turned 30° against the chart.
-    let n = 16u32;
-    scene.textures.push(Texture {
-        name: None,
-        width: n,
-        height: n,
-        pixels: (0..n * n)
-            .map(|i| Vec4::splat(((i % n + i / n) % 2) as f32))
-            .collect(),
-        has_alpha: false,
-        wrap_s: WrapMode::Repeat,
-        wrap_t: WrapMode::Repeat,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
-    });
+    scene
+        .textures
+        .push(scenes::checker(16, 1, Vec4::ZERO, Vec4::ONE));
     let (s, c) = 30f32.to_radians().sin_cos();
     let uv_of = |p: Vec3| Vec2::new(c * p.x - s * p.z, s * p.x + c * p.z) * 0.5;
     for t in &mut scene.triangles {

@@ -228,15 +228,7 @@ fn open_plane_under_sky_and_sun() {
     let (sky, rho, e_sun) = (Vec3::new(2.0, 1.0, 0.5), 0.6, Vec3::new(3.0, 2.0, 1.0));
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("sky plane");
     let theta = 0.6f32;
     scene.suns.push(Sun {

@@ -122,15 +122,7 @@ fn thin_sheet_reflects_and_transmits() {
             color: c,
         },
     );
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("paper");
     // From above: the sky lights both sides (the sheet is alone), so reflected + transmitted.
     let (a, se) = albedo(&scene, Vec3::ZERO, Vec3::Y, 4000, 0.5);
