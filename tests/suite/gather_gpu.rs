@@ -186,15 +186,7 @@ fn lamp_over_floor() -> Scene {
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
     floor(&mut b, grey);
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, 0.2),
-            Vec3::new(-0.2, 0.8, 0.2),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 0.8, 0.2, lamp);
     b.build("lamp over floor")
 }
 

@@ -250,15 +250,7 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         false,
         mixed,
     );
-    b.quad(
-        [
-            Vec3::new(-0.5, 1.5, -0.5),
-            Vec3::new(0.5, 1.5, -0.5),
-            Vec3::new(0.5, 1.5, 0.5),
-            Vec3::new(-0.5, 1.5, 0.5),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.5, 0.5, lamp);
     let mut scene = b.build("materials");
     // A 4×4 checker, mirrored-repeat / clamp: uv from the builder are 0, so set some.
     let grey = glam::Vec4::new(0.2, 0.2, 0.2, 1.0);

@@ -259,15 +259,7 @@ fn textured_and_untextured_faces_render_alike_in_stills_and_the_window() {
         ],
         wall,
     );
-    b.quad(
-        [
-            Vec3::new(-0.3, 1.4, -0.3),
-            Vec3::new(0.3, 1.4, -0.3),
-            Vec3::new(0.3, 1.4, 0.3),
-            Vec3::new(-0.3, 1.4, 0.3),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.4, 0.3, lamp);
     let mut scene = b.build("checker floor, wall, lamp");
     scene
         .textures

@@ -102,15 +102,7 @@ fn attribute_scene() -> Scene {
         };
         b.triangle_with([w[i], w[j], w[k]], wall, corners);
     }
-    b.quad(
-        [
-            Vec3::new(-0.2, 1.2, -0.2),
-            Vec3::new(0.2, 1.2, -0.2),
-            Vec3::new(0.2, 1.2, 0.2),
-            Vec3::new(-0.2, 1.2, 0.2),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.2, 0.2, lamp);
     let mut scene = b.build("attributes");
     scene.textures.push(four_colours());
     scene.materials[wall as usize].base_color_texture = Some(TexRef {

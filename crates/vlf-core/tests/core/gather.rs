@@ -131,15 +131,7 @@ fn emitter_over_a_floor_gives_the_quadrature_irradiance() {
         grey,
     );
     // Faces down (counter-clockwise seen from below).
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, 0.2),
-            Vec3::new(-0.2, 0.8, 0.2),
-        ],
-        lamp,
-    );
+    crate::scenes::down_square(&mut b, 0.8, 0.2, lamp);
     let scene = b.build("lamp over floor");
     let xf = scene.to_vlf;
     let g = bake_and_gather(&scene, Vec3::ZERO, &gp(0.08, 0.16, 64, 16), 0);
@@ -353,15 +345,7 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
     let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::ONE);
     // The ceiling faces down (counter-clockwise seen from below).
-    b.quad(
-        [
-            Vec3::new(-1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(-1.0, 1.0, 1.0),
-        ],
-        black,
-    );
+    crate::scenes::down_square(&mut b, 1.0, 1.0, black);
     let (lo, hi) = (1.0 - h, 1.0);
     let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     b.quad(
@@ -440,15 +424,7 @@ fn the_result_does_not_depend_on_the_thread_count() {
         false,
         white,
     );
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.99, -0.2),
-            Vec3::new(0.2, 0.99, -0.2),
-            Vec3::new(0.2, 0.99, 0.2),
-            Vec3::new(-0.2, 0.99, 0.2),
-        ],
-        lamp,
-    );
+    crate::scenes::down_square(&mut b, 0.99, 0.2, lamp);
     let scene = b.build("box room");
     let p = gp(0.1, 0.2, 9, 16);
     let one = bake_and_gather(&scene, Vec3::ZERO, &p, 1);
