@@ -48,9 +48,7 @@ fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
             max: 100,
         },
     );
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let want = le / (1.0 - rho);
     for face in 0..prep.faces.len() {
         let (mean, max_dev) = face_stats(
@@ -81,9 +79,7 @@ fn open_plane_under_sky_reads_albedo_times_sky() {
         sky,
         ..params(46, 32, Iterations::Fixed(2))
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     for side in 0..2 {
         let (mean, max_dev) = face_stats(
             &prep,
@@ -124,9 +120,7 @@ fn a_sun_lights_only_the_side_facing_it() {
         irradiance: e_sun,
     });
     let params = params(46, 32, Iterations::Fixed(1));
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     // Which side faces up depends on the face's winding: find it.
     let up = if prep.faces[0].normal().y > 0.0 { 0 } else { 1 };
     let lit = e_sun * 0.75f32.sqrt();
@@ -153,9 +147,7 @@ fn cornell_energy_balances_within_half_a_percent() {
     );
     let scene = vlf_core::scene::load(std::path::Path::new(path)).unwrap();
     let params = params(126, 32, Iterations::Fixed(4));
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (_, _, out) = crate::bakes::propagate(&scene, &params);
     let e = &out.energy;
     let imbalance = e.relative_imbalance();
     assert!(
@@ -243,9 +235,7 @@ fn parallel_squares_error(directions: u32, perturb: u32) -> (f64, f32) {
         perturb,
         ..params(directions, 64, Iterations::Fixed(1))
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let radiance = prep.outgoing_radiance(&out.irradiance);
     let fi = scene.faces.iter().position(|f| f.normal.y > 0.5).unwrap();
     let f = prep.faces[fi];

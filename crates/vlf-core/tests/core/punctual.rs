@@ -182,9 +182,7 @@ fn a_point_light_in_a_closed_box_conserves_energy() {
         threshold: 1e-5,
         max: 100,
     });
-    let prep = BakeScene::new(&scene, &p).unwrap();
-    let set = DirectionSet::at_least(p.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &p);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &p);
     let s2 = f64::from(scene.to_vlf.scale).powi(2);
     let sum = |e: &[[f32; 4]]| -> f64 {
         e.iter()

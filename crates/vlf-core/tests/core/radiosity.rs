@@ -8,7 +8,6 @@ use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
-use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, FormFactors, RadiosityError, RadiositySettings};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
@@ -350,9 +349,7 @@ fn cornell_box_agrees_with_the_vlf_reference_bake() {
         directions: 126,
         ..params(32, 2.0)
     };
-    let prep = BakeScene::new(&scene, &p).unwrap();
-    let set = DirectionSet::at_least(p.directions).unwrap();
-    let vlf = reference::propagate(&prep, &set, &p);
+    let (prep, _, vlf) = crate::bakes::propagate(&scene, &p);
     let vlf_radiance = prep.outgoing_radiance(&vlf.irradiance);
     let s = settings(1024);
     let ff = radiosity::form_factors(&prep, p.sky, &s).unwrap();

@@ -236,8 +236,6 @@ fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) ->
 /// received; and the propagation's energy bookkeeping balances.
 #[test]
 fn lamp_in_diffuse_transmitting_shade() {
-    use vlf_core::bake::reference;
-    use vlf_core::directions::DirectionSet;
     use vlf_core::lightfield::Iterations;
     let c = Vec3::new(0.9, 0.6, 0.3);
     let mut b = SceneBuilder::new();
@@ -263,9 +261,7 @@ fn lamp_in_diffuse_transmitting_shade() {
             max: 20,
         },
     );
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let of = |m: u32| -> Vec<usize> {
         (0..scene.faces.len())
             .filter(|&f| scene.faces[f].material == m)
@@ -360,8 +356,6 @@ fn room_with_a_box(
 /// none), and the cube sends on more than its surface alone reflects (F_dr,ext E).
 #[test]
 fn marble_cube_in_room_balances_energy() {
-    use vlf_core::bake::reference;
-    use vlf_core::directions::DirectionSet;
     use vlf_core::lightfield::Iterations;
     let bake = |translucent: bool| {
         let (scene, _) = room_with_a_box("marble cube", 0.2, |b| {
@@ -379,9 +373,7 @@ fn marble_cube_in_room_balances_energy() {
                 max: 40,
             },
         );
-        let prep = BakeScene::new(&scene, &params).unwrap();
-        let set = DirectionSet::at_least(params.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &params);
+        let (prep, _, out) = crate::bakes::propagate(&scene, &params);
         let e = &out.energy;
         eprintln!(
             "translucent {translucent}: iterations {}, emitted {:.4}, absorbed {:.4}, escaped {:.4}, unshot {:.2e}, imbalance {:.3e}",

@@ -221,9 +221,7 @@ fn panes_keep_the_energy_balance() {
         iterations: Iterations::Fixed(3),
         ..params()
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (_, _, out) = crate::bakes::propagate(&scene, &params);
     let e = &out.energy;
     eprintln!(
         "pane energy: injected {:.4} absorbed {:.4} escaped {:.4} unshot {:.4}, imbalance {:+.3}%",
