@@ -60,6 +60,21 @@ pub fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
     b.quad(q, m);
 }
 
+/// A square facing up at height y spanning [-s, s]² (a floor or a blocker): corners (-s, s),
+/// (s, s), (s, -s), (-s, -s), counter-clockwise seen from above. Its triangles split along
+/// (-s, s)–(s, -s), not along [`hquad`]'s other diagonal.
+pub fn up_square(b: &mut SceneBuilder, y: f32, s: f32, m: u32) {
+    b.quad(
+        [
+            Vec3::new(-s, y, s),
+            Vec3::new(s, y, s),
+            Vec3::new(s, y, -s),
+            Vec3::new(-s, y, -s),
+        ],
+        m,
+    );
+}
+
 /// A square facing down at height y spanning [-s, s]² (a ceiling lamp): corners (-s, -s),
 /// (s, -s), (s, s), (-s, s), counter-clockwise seen from below. Its triangles split along
 /// (-s, -s)–(s, s), not along [`hquad`]'s other diagonal.

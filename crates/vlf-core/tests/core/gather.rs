@@ -71,15 +71,7 @@ fn face_with_normal(scene: &Scene, n: Vec3) -> usize {
 fn open_floor_under_a_uniform_sky_receives_pi_times_the_sky() {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, grey);
     let scene = b.build("sky floor");
     let sky = Vec3::new(1.0, 0.5, 0.25);
     let g = bake_and_gather(&scene, sky, &gp(0.1, 0.2, 4, 16), 0);
@@ -121,15 +113,7 @@ fn emitter_over_a_floor_gives_the_quadrature_irradiance() {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, grey);
     // Faces down (counter-clockwise seen from below).
     crate::scenes::down_square(&mut b, 0.8, 0.2, lamp);
     let scene = b.build("lamp over floor");
@@ -158,25 +142,9 @@ fn a_sun_casts_a_sharp_shadow_through_stratified_points() {
     // Black surfaces: no indirect light, so the irradiance is the sun's alone.
     let mut b = SceneBuilder::new();
     let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        black,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, black);
     // A blocker [-0.3, 0.3]² at height 0.5: under a vertical sun its shadow is that square.
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, -0.3),
-            Vec3::new(-0.3, 0.5, -0.3),
-        ],
-        black,
-    );
+    crate::scenes::up_square(&mut b, 0.5, 0.3, black);
     let mut scene = b.build("sun and blocker");
     scene.suns.push(Sun {
         name: None,
