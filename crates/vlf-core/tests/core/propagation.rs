@@ -212,24 +212,8 @@ fn parallel_squares_error(directions: u32, perturb: u32) -> (f64, f32) {
     let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(le));
     let floor = b.diffuse("floor", Vec3::splat(rho), Vec3::ZERO);
     // Emitter at y = h facing down, receiver at y = 0 facing up, both [-half, half]².
-    b.quad(
-        [
-            Vec3::new(-half, h, -half),
-            Vec3::new(half, h, -half),
-            Vec3::new(half, h, half),
-            Vec3::new(-half, h, half),
-        ],
-        light,
-    );
-    b.quad(
-        [
-            Vec3::new(-half, 0.0, -half),
-            Vec3::new(-half, 0.0, half),
-            Vec3::new(half, 0.0, half),
-            Vec3::new(half, 0.0, -half),
-        ],
-        floor,
-    );
+    crate::scenes::down_square(&mut b, h, half, light);
+    crate::scenes::hquad(&mut b, 0.0, half, true, floor);
     let scene = b.build("parallel squares");
     let params = BakeParams {
         perturb,

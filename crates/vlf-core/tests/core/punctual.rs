@@ -35,15 +35,7 @@ fn light(kind: PunctualKind, position: Vec3, intensity: f32) -> PunctualLight {
 fn plane_scene(albedo: f32, lights: Vec<PunctualLight>) -> Scene {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(albedo), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-HALF, 0.0, HALF),
-            Vec3::new(HALF, 0.0, HALF),
-            Vec3::new(HALF, 0.0, -HALF),
-            Vec3::new(-HALF, 0.0, -HALF),
-        ],
-        m,
-    );
+    crate::scenes::up_square(&mut b, 0.0, HALF, m);
     let mut scene = b.build("lit plane");
     scene.lights = lights;
     scene

@@ -136,24 +136,8 @@ fn face_form_factors_match_quadrature_and_are_reciprocal() {
     let m = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let (s, t) = (big / 2.0, small / 2.0);
     // Bottom square faces +y, top square faces −y.
-    b.quad(
-        [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(-s, 0.0, s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(s, 0.0, -s),
-        ],
-        m,
-    );
-    b.quad(
-        [
-            Vec3::new(-t, h, -t),
-            Vec3::new(t, h, -t),
-            Vec3::new(t, h, t),
-            Vec3::new(-t, h, t),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, s, true, m);
+    crate::scenes::down_square(&mut b, h, t, m);
     let scene = b.build("two squares");
     let prep = BakeScene::new(&scene, &params(32, 1.0)).unwrap();
     assert_eq!(prep.faces.len(), 2);

@@ -124,15 +124,7 @@ fn vertex_colours_multiply_the_albedo_in_the_bake() {
         b.triangle_with([q[0], q[1], q[2]], floor, corners.clone());
         b.triangle_with([q[0], q[2], q[3]], floor, corners);
         let h = 0.5;
-        b.quad(
-            [
-                Vec3::new(-0.3, h, -0.3),
-                Vec3::new(0.3, h, -0.3),
-                Vec3::new(0.3, h, 0.3),
-                Vec3::new(-0.3, h, 0.3),
-            ],
-            black,
-        );
+        crate::scenes::down_square(&mut b, h, 0.3, black);
         b.build("coloured floor")
     };
     let (black, plain, coloured) = (build(false, 0.0), build(false, 0.8), build(true, 0.8));

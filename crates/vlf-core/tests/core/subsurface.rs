@@ -141,15 +141,7 @@ fn marble_beam_profile() {
     let m = b.diffuse("marble", Vec3::ONE, Vec3::ZERO);
     b.translucent(m, marble());
     let s = 0.004; // ±4 mm: the profile is above 1 % of its peak within 3 mm (red)
-    b.quad(
-        [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(-s, 0.0, s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(s, 0.0, -s),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, s, true, m);
     let scene = b.build("marble beam");
     let scale = scene.to_vlf.scale;
     let h_mm = 0.05;
@@ -331,15 +323,7 @@ fn room_with_a_box(
     let light = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
     let m = box_material(&mut b);
     b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
-    b.quad(
-        [
-            Vec3::new(-lamp, 0.99, -lamp),
-            Vec3::new(lamp, 0.99, -lamp),
-            Vec3::new(lamp, 0.99, lamp),
-            Vec3::new(-lamp, 0.99, lamp),
-        ],
-        light,
-    );
+    crate::scenes::down_square(&mut b, 0.99, lamp, light);
     b.aabox(
         Vec3::new(-0.3, -0.9, -0.3),
         Vec3::new(0.3, -0.3, 0.3),
