@@ -1,7 +1,7 @@
 //! Bake scaffolding shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::bakes`): the small parameter set most tests start from, a CPU reference
-//! propagation with its prepared scene and direction set, and its view as the final gather's
-//! converged field.
+//! suite (`vlf_tests::bakes`): the small parameter set most tests start from, the fixed-count
+//! final gather the CPU and GPU compare draw for draw, a CPU reference propagation with its
+//! prepared scene and direction set, and its view as the final gather's converged field.
 
 use glam::Vec3;
 use vlf_core::bake::BakeScene;

@@ -1,6 +1,6 @@
 //! Test scenes shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::scenes`): the rectangles and materials scenes are built from, and
-//! surfaces that let light through.
+//! suite (`vlf_tests::scenes`): the rectangles, squares, materials and textures scenes are built
+//! from, and surfaces that let light through.
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
