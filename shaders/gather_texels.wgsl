@@ -486,13 +486,27 @@ fn field_radiance(dir: vec3<f32>, hit: Hit) -> vec3<f32> {
 }
 
 // The texel of this invocation (NONE past the chunk); sets scratch_base.
-fn chunk_texel(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    let i = invocation_index(wid, nwg, lid);
+fn chunk_texel(inv: Invocation) -> u32 {
+    let i = invocation_index(inv);
     if i >= gg.texel_count {
         return NONE;
     }
     scratch_base = i * gg.scratch_stride;
     return gg.texel_base + i;
+}
+
+// The texel of a step that works on open texels, with its state in *s: NONE past the chunk or
+// when the texel is CLOSED (the step has nothing to do).
+fn open_texel(inv: Invocation, s: ptr<function, TexelState>) -> u32 {
+    let t = chunk_texel(inv);
+    if t == NONE {
+        return NONE;
+    }
+    *s = load_state();
+    if ((*s).flags & CLOSED) != 0u {
+        return NONE;
+    }
+    return t;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -501,12 +515,8 @@ fn chunk_texel(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
 // Starts texel t: its random stream, lit side and class (TexelPoints::classify: enclosed
 // texels are CLOSED, those whose probes disagree test each point).
 @compute @workgroup_size(64)
-fn begin(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn begin(inv: Invocation) {
+    let t = chunk_texel(inv);
     if t == NONE {
         return;
     }
@@ -531,24 +541,17 @@ fn begin(
 // Points gg.k0 .. gg.k1 of gg.points: each drawn in its stratum, then anywhere in the texel,
 // until one lands on the face where it is open.
 @compute @workgroup_size(64)
-fn draw_points(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn draw_points(inv: Invocation) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
         return;
     }
     var rng = s.rng;
     let at = locate(t);
     let test_each = (s.flags & TEST_EACH) != 0u;
     let g = gg.points_side;
-    let inv = 1.0 / f32(g);
+    let inv_g = 1.0 / f32(g);
     for (var k = gg.k0; k < min(gg.k1, gg.points); k++) {
         let st = vec2<f32>(f32(k % g), f32(k / g % g));
         var found = false;
@@ -557,7 +560,7 @@ fn draw_points(
                 let j = rng_2d(&rng);
                 var c = at.corner + j;
                 if draw < DRAWS_IN_STRATUM {
-                    c = at.corner + (st + j) * inv;
+                    c = at.corner + (st + j) * inv_g;
                 }
                 let tri = chart_locate(at.fi, c);
                 if tri != NONE {
@@ -578,17 +581,10 @@ fn draw_points(
 // After the draws: a texel no draw found falls back to its covered part's centroid (or is
 // CLOSED); then the strata of side gg.side are shuffled for the first rays.
 @compute @workgroup_size(64)
-fn finish_points(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn finish_points(inv: Invocation) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
         return;
     }
     var rng = s.rng;
@@ -616,17 +612,10 @@ fn finish_points(
 
 // Shuffles the strata of side gg.side (the direct estimator's cosine rays).
 @compute @workgroup_size(64)
-fn shuffle(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn shuffle(inv: Invocation) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
         return;
     }
     var rng = s.rng;
@@ -654,17 +643,10 @@ fn write_estimate(t: u32, s: TexelState, e: vec3<f32>) {
 
 // Rays gg.k0 .. gg.k1 (of the texel's points).
 @compute @workgroup_size(64)
-fn indirect_rays(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn indirect_rays(inv: Invocation) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
         return;
     }
     var rng = s.rng;
@@ -705,12 +687,8 @@ fn indirect_rays(
 }
 
 @compute @workgroup_size(64)
-fn indirect_end(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn indirect_end(inv: Invocation) {
+    let t = chunk_texel(inv);
     if t == NONE {
         return;
     }
@@ -722,134 +700,125 @@ fn indirect_end(
 // Direct estimator (Gatherer::direct): light samples and cosine rays combined with the power
 // heuristic, the sky by the cosine rays, suns, point and spot lights by shadow rays.
 
-// Light samples gg.k0 .. gg.k1 of gg.light_samples (stratified over the emitters' sample
-// space, paired at random with the point strata).
-@compute @workgroup_size(64)
-fn light_samples(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+// One sample of the direct estimator: the texel's point it starts from (picked at random among
+// them, gather::spread_point), that point's shading normal, and the sample's jittered stratum.
+struct DirectSample {
+    p: vec3<f32>,
+    ns: vec3<f32>,
+    u: vec2<f32>,
+}
+
+// Light sample k (stratified over the emitters' sample space, paired at random with the point
+// strata), added to (*s).sum.
+fn light_sample(ds: DirectSample, s: ptr<function, TexelState>) {
+    let n = (*s).n;
+    let fl = f32(gg.light_samples);
+    let fb = f32(gg.cosine_rays);
+    let pe = pick_emitter_remapped(ds.u);
+    let e = blob[scene_info.emitter_base + pe.index];
+    let et = bitcast<u32>(e.x);
+    let lt = triangles[et];
+    let bary = triangle_barycentrics(pe.u);
+    let x = lt.p0 * (1.0 - bary.x - bary.y) + lt.p1 * bary.x + lt.p2 * bary.y;
+    let nl = normalize(tri_normal_raw(lt));
+    let to = x - ds.p;
+    let d2 = dot(to, to);
+    let wi = to / sqrt(d2);
+    let cos_r = dot(ds.ns, wi);
+    let cos_l = -dot(wi, nl);
+    if cos_r <= 0.0 || cos_l <= 0.0 || below(ds.ns, n, wi) {
+        return;
+    }
+    let pdf_l = e.z / e.y * d2 / cos_l;
+    let pdf_b = cos_r * INV_PI;
+    let w = power_heuristic(fl * pdf_l, fb * pdf_b);
+    let origin = offset_origin(ds.p, n);
+    let aim = offset_origin(x, nl);
+    if w > 0.0 {
+        // Through panes, attenuated.
+        let passed = segment_transmittance(origin, aim - origin, 0u);
+        if any(passed != vec3<f32>(0.0)) {
+            let le = emission_at(et, bary.x, bary.y);
+            (*s).sum += le * (w * cos_r / (pdf_l * fl)) * passed;
+        }
+    }
+}
+
+// Cosine ray k: the sky, and emitters weighted against the light samples, added to (*s).sum.
+fn cosine_ray(ds: DirectSample, s: ptr<function, TexelState>) {
+    let n = (*s).n;
+    let fl = f32(gg.light_samples);
+    let fb = f32(gg.cosine_rays);
+    let dir = to_world(cosine_hemisphere(ds.u), ds.ns);
+    if below(ds.ns, n, dir) {
+        return;
+    }
+    // Through panes, attenuated (hit.t the whole distance, for the light samples' pdf).
+    let traced = trace_through_panes(offset_origin(ds.p, n), dir);
+    let hit = traced.hit;
+    if hit.tri == NONE {
+        (*s).sum += gg.sky.xyz * (PI / fb) * traced.throughput;
+        return;
+    }
+    let ht = triangles[hit.tri];
+    if ht.light == NONE {
+        return;
+    }
+    let cos_l = -dot(dir, normalize(tri_normal_raw(ht)));
+    if cos_l <= 0.0 {
+        return;
+    }
+    let pdf_b = dot(ds.ns, dir) * INV_PI;
+    let pdf_l = emitter_pdf(ht.light, hit.t, cos_l) / scene_info.p_emitters;
+    let w = power_heuristic(fb * pdf_b, fl * pdf_l);
+    let le = emission_at(hit.tri, hit.u, hit.v);
+    (*s).sum += le * (w * PI / fb) * traced.throughput;
+}
+
+// Samples gg.k0 .. gg.k1 of `count` (strata of side `side`): light samples when `lights`, else
+// cosine rays. Each draws its point, then its stratum's jitter, in the CPU's order.
+fn direct_samples(inv: Invocation, count: u32, side: u32, lights: bool) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
         return;
     }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
-        return;
-    }
     var rng = s.rng;
-    let n = s.n;
     let fi = locate(t).fi;
-    let fl = f32(gg.light_samples);
-    let fb = f32(gg.cosine_rays);
-    for (var k = gg.k0; k < min(gg.k1, gg.light_samples); k++) {
-        let kp = spread_point(k, gg.light_samples, s.npts, &rng);
+    for (var k = gg.k0; k < min(gg.k1, count); k++) {
+        let kp = spread_point(k, count, s.npts, &rng);
         let p = point(kp);
-        let ns = point_normal(kp, fi, n);
-        let u = strata_point(k, gg.light_side, &rng);
-        let pe = pick_emitter_remapped(u);
-        let e = blob[scene_info.emitter_base + pe.index];
-        let et = bitcast<u32>(e.x);
-        let lt = triangles[et];
-        let bary = triangle_barycentrics(pe.u);
-        let x = lt.p0 * (1.0 - bary.x - bary.y) + lt.p1 * bary.x + lt.p2 * bary.y;
-        let nl = normalize(tri_normal_raw(lt));
-        let to = x - p;
-        let d2 = dot(to, to);
-        let wi = to / sqrt(d2);
-        let cos_r = dot(ns, wi);
-        let cos_l = -dot(wi, nl);
-        if cos_r <= 0.0 || cos_l <= 0.0 || below(ns, n, wi) {
-            continue;
-        }
-        let pdf_l = e.z / e.y * d2 / cos_l;
-        let pdf_b = cos_r * INV_PI;
-        let w = power_heuristic(fl * pdf_l, fb * pdf_b);
-        let origin = offset_origin(p, n);
-        let aim = offset_origin(x, nl);
-        if w > 0.0 {
-            // Through panes, attenuated.
-            let passed = segment_transmittance(origin, aim - origin, 0u);
-            if any(passed != vec3<f32>(0.0)) {
-                let le = emission_at(et, bary.x, bary.y);
-                s.sum += le * (w * cos_r / (pdf_l * fl)) * passed;
-            }
+        let ns = point_normal(kp, fi, s.n);
+        let u = strata_point(k, side, &rng);
+        if lights {
+            light_sample(DirectSample(p, ns, u), &s);
+        } else {
+            cosine_ray(DirectSample(p, ns, u), &s);
         }
     }
     s.rng = rng;
     end_step(&s);
 }
 
-// Cosine rays gg.k0 .. gg.k1 of gg.cosine_rays: the sky, and emitters weighted against the
-// light samples.
+// Light samples gg.k0 .. gg.k1 of gg.light_samples.
 @compute @workgroup_size(64)
-fn cosine_rays(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
-    if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
-        return;
-    }
-    var rng = s.rng;
-    let n = s.n;
-    let fi = locate(t).fi;
-    let fl = f32(gg.light_samples);
-    let fb = f32(gg.cosine_rays);
-    for (var k = gg.k0; k < min(gg.k1, gg.cosine_rays); k++) {
-        let kp = spread_point(k, gg.cosine_rays, s.npts, &rng);
-        let p = point(kp);
-        let ns = point_normal(kp, fi, n);
-        let u = strata_point(k, gg.cosine_side, &rng);
-        let dir = to_world(cosine_hemisphere(u), ns);
-        if below(ns, n, dir) {
-            continue;
-        }
-        // Through panes, attenuated (hit.t the whole distance, for the light samples' pdf).
-        let traced = trace_through_panes(offset_origin(p, n), dir);
-        let hit = traced.hit;
-        if hit.tri == NONE {
-            s.sum += gg.sky.xyz * (PI / fb) * traced.throughput;
-            continue;
-        }
-        let ht = triangles[hit.tri];
-        if ht.light == NONE {
-            continue;
-        }
-        let cos_l = -dot(dir, normalize(tri_normal_raw(ht)));
-        if cos_l <= 0.0 {
-            continue;
-        }
-        let pdf_b = dot(ns, dir) * INV_PI;
-        let pdf_l = emitter_pdf(ht.light, hit.t, cos_l) / scene_info.p_emitters;
-        let w = power_heuristic(fb * pdf_b, fl * pdf_l);
-        let le = emission_at(hit.tri, hit.u, hit.v);
-        s.sum += le * (w * PI / fb) * traced.throughput;
-    }
-    s.rng = rng;
-    end_step(&s);
+fn light_samples(inv: Invocation) {
+    direct_samples(inv, gg.light_samples, gg.light_side, true);
+}
+
+// Cosine rays gg.k0 .. gg.k1 of gg.cosine_rays.
+@compute @workgroup_size(64)
+fn cosine_rays(inv: Invocation) {
+    direct_samples(inv, gg.cosine_rays, gg.cosine_side, false);
 }
 
 // Delta lights (suns, point and spot lights): one shadow ray per point and light, points
 // gg.k0 .. gg.k1.
 @compute @workgroup_size(64)
-fn delta_rays(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn delta_rays(inv: Invocation) {
+    var s: TexelState;
+    let t = open_texel(inv, &s);
     if t == NONE {
-        return;
-    }
-    var s = load_state();
-    if (s.flags & CLOSED) != 0u {
         return;
     }
     let fi = locate(t).fi;
@@ -873,12 +842,8 @@ fn delta_rays(
 }
 
 @compute @workgroup_size(64)
-fn direct_end(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let t = chunk_texel(wid, nwg, lid);
+fn direct_end(inv: Invocation) {
+    let t = chunk_texel(inv);
     if t == NONE {
         return;
     }

@@ -18,12 +18,8 @@
 @group(2) @binding(2) var<storage, read_write> queues: array<RtQueue>;
 
 @compute @workgroup_size(64)
-fn closest_hit(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn closest_hit(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= atomicLoad(&queues[batch.queue].count) {
         return;
     }
@@ -31,12 +27,8 @@ fn closest_hit(
 }
 
 @compute @workgroup_size(64)
-fn any_hit(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn any_hit(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= atomicLoad(&queues[batch.queue].count) {
         return;
     }

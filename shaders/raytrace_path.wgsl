@@ -336,12 +336,8 @@ fn wave_begin() {
 }
 
 @compute @workgroup_size(64)
-fn generate(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn generate(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= g.path_count {
         return;
     }
@@ -352,12 +348,8 @@ fn generate(
 }
 
 @compute @workgroup_size(64)
-fn shade(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn shade(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= atomicLoad(&queues[batch.queue].count) {
         return;
     }
@@ -382,13 +374,9 @@ fn shade(
 }
 
 @compute @workgroup_size(64)
-fn resolve(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
-    if lid == 0u {
+fn resolve(inv: Invocation) {
+    let i = invocation_index(inv);
+    if inv.lid == 0u {
         atomicStore(&wg_shadow, 0u);
     }
     workgroupBarrier();
@@ -406,7 +394,7 @@ fn resolve(
         }
     }
     workgroupBarrier();
-    if lid == 0u {
+    if inv.lid == 0u {
         atomicAdd(&queues[3].count, atomicLoad(&wg_shadow));
     }
 }
@@ -422,12 +410,8 @@ fn queue_end() {
 // image[i] = mean over the slots of chunk pixel i (tile-local order: i = tile * 64 + local) of
 // accum / spp, after all waves of the chunk.
 @compute @workgroup_size(64)
-fn finish(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn finish(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= g.tile_count * 64u {
         return;
     }
@@ -444,12 +428,8 @@ fn finish(
 // Megakernel: one invocation traces a whole path (same estimator, same random stream).
 
 @compute @workgroup_size(64)
-fn megakernel(
-    @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(num_workgroups) nwg: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-) {
-    let i = invocation_index(wid, nwg, lid);
+fn megakernel(inv: Invocation) {
+    let i = invocation_index(inv);
     if i >= g.path_count {
         return;
     }

@@ -56,8 +56,15 @@ struct RtQueue {
     _pad2: u32,
 }
 
-// Index of an invocation of a 2-D dispatch of 64-wide workgroups (vlf_gpu::passes::dispatch_2d):
-// ray, path or slot index.
-fn invocation_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * nwg.x + wid.x) * 64u + lid;
+// An invocation of a 2-D dispatch of 64-wide workgroups (vlf_gpu::wgpu_util::dispatch_2d): the
+// input of every such entry point.
+struct Invocation {
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+}
+
+// Its index in the dispatch: ray, path, slot or texel index.
+fn invocation_index(inv: Invocation) -> u32 {
+    return (inv.wid.y * inv.nwg.x + inv.wid.x) * 64u + inv.lid;
 }

@@ -1,7 +1,7 @@
 //! Bake scaffolding shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::bakes`): the small parameter set most tests start from, a CPU reference
-//! propagation with its prepared scene and direction set, and its view as the final gather's
-//! converged field.
+//! suite (`vlf_tests::bakes`): the small parameter set most tests start from, the fixed-count
+//! final gather the CPU and GPU compare draw for draw, a CPU reference propagation with its
+//! prepared scene and direction set, and its view as the final gather's converged field.
 
 use glam::Vec3;
 use vlf_core::bake::BakeScene;
@@ -45,19 +45,27 @@ pub fn propagate(scene: &Scene, params: &BakeParams) -> (BakeScene, DirectionSet
     (prep, set, out)
 }
 
+/// A fixed-count final gather with no denoiser (the estimates the CPU and GPU compare draw for
+/// draw): texels of `texel_scale` ray spacings, the indirect grid's of `indirect_texel_scale`,
+/// and `[light_samples, direct_rays, indirect_rays]`.
+pub fn fixed_gather(texel_scale: f32, indirect_texel_scale: f32, counts: [u32; 3]) -> GatherParams {
+    let [light_samples, direct_rays, indirect_rays] = counts;
+    GatherParams {
+        texel_scale,
+        indirect_texel_scale,
+        light_samples,
+        direct_rays,
+        indirect_rays,
+        sampling: Sampling::FIXED,
+        denoise: Denoiser::Off,
+    }
+}
+
 /// The final gather of the pane tests (`check_pane_gather`'s callers): texels twice the ray
 /// spacing, indirect grid four times, 16 light samples, 256 direct and 4 indirect rays, fixed
 /// sampling, no denoiser.
 pub fn pane_gather() -> GatherParams {
-    GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 16,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: Denoiser::Off,
-    }
+    fixed_gather(2.0, 4.0, [16, 256, 4])
 }
 
 /// A CPU reference propagation of a scene: its prepared scene, direction set and result.

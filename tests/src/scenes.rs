@@ -1,6 +1,6 @@
 //! Test scenes shared by vlf-core's integration tests (included with `#[path]`) and the GPU
-//! suite (`vlf_tests::scenes`): the rectangles and materials scenes are built from, and
-//! surfaces that let light through.
+//! suite (`vlf_tests::scenes`): the rectangles, squares, materials and textures scenes are built
+//! from, and surfaces that let light through.
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
@@ -8,6 +8,27 @@ use vlf_core::scene::{
     AlphaMode, FilterMode, Material, MaterialKind, PunctualKind, PunctualLight, Scene,
     SceneBuilder, TexRef, Texture, Transparency, WrapMode,
 };
+
+/// An `n × n`-texel checkerboard texture of `cell × cell`-texel squares: `even` where the
+/// square's column + row is even, else `odd` (repeating, linear filter).
+pub fn checker(n: u32, cell: u32, even: Vec4, odd: Vec4) -> Texture {
+    Texture {
+        name: None,
+        width: n,
+        height: n,
+        pixels: (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n / cell, i / n / cell);
+                if (x + y).is_multiple_of(2) { even } else { odd }
+            })
+            .collect(),
+        has_alpha: false,
+        wrap_s: WrapMode::Repeat,
+        wrap_t: WrapMode::Repeat,
+        filter: FilterMode::Linear,
+        gltf_texture: 0,
+    }
+}
 
 /// Adds the rectangle `o, o + e1, o + e1 + e2, o + e2`; its front normal is `e1 × e2`.
 pub fn rect(b: &mut SceneBuilder, o: Vec3, e1: Vec3, e2: Vec3, m: u32) {
@@ -37,6 +58,36 @@ pub fn hquad(b: &mut SceneBuilder, y: f32, s: f32, up: bool, m: u32) {
         q.reverse();
     }
     b.quad(q, m);
+}
+
+/// A square facing up at height y spanning [-s, s]² (a floor or a blocker): corners (-s, s),
+/// (s, s), (s, -s), (-s, -s), counter-clockwise seen from above. Its triangles split along
+/// (-s, s)–(s, -s), not along [`hquad`]'s other diagonal.
+pub fn up_square(b: &mut SceneBuilder, y: f32, s: f32, m: u32) {
+    b.quad(
+        [
+            Vec3::new(-s, y, s),
+            Vec3::new(s, y, s),
+            Vec3::new(s, y, -s),
+            Vec3::new(-s, y, -s),
+        ],
+        m,
+    );
+}
+
+/// A square facing down at height y spanning [-s, s]² (a ceiling lamp): corners (-s, -s),
+/// (s, -s), (s, s), (-s, s), counter-clockwise seen from below. Its triangles split along
+/// (-s, -s)–(s, s), not along [`hquad`]'s other diagonal.
+pub fn down_square(b: &mut SceneBuilder, y: f32, s: f32, m: u32) {
+    b.quad(
+        [
+            Vec3::new(-s, y, -s),
+            Vec3::new(s, y, -s),
+            Vec3::new(s, y, s),
+            Vec3::new(-s, y, s),
+        ],
+        m,
+    );
 }
 
 /// A white GGX metal named `name` of roughness α (reflectance 1, double-sided).

@@ -47,15 +47,7 @@ const MAX_MEAN: f64 = 1e-4;
 const MAX_BEYOND: f64 = 0.01;
 
 pub(crate) fn gp() -> GatherParams {
-    GatherParams {
-        texel_scale: 1.0,
-        indirect_texel_scale: 2.0,
-        light_samples: 16,
-        direct_rays: 9,
-        indirect_rays: 16,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    vlf_tests::bakes::fixed_gather(1.0, 2.0, [16, 9, 16])
 }
 
 /// The gather settings `vlf-bake bake` picks for `scene` by default (`--quality auto`, from
@@ -176,33 +168,13 @@ fn compare_with(ctx: &GpuContext, name: &str, scene: &Scene, sky: Vec3, gp: &Gat
     );
 }
 
-fn floor(b: &mut SceneBuilder, m: u32) {
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        m,
-    );
-}
-
 /// A lamp over a floor (emitter light samples and cosine rays, MIS).
 fn lamp_over_floor() -> Scene {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
-    floor(&mut b, grey);
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, 0.2),
-            Vec3::new(-0.2, 0.8, 0.2),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::up_square(&mut b, 0.0, 1.0, grey);
+    vlf_tests::scenes::down_square(&mut b, 0.8, 0.2, lamp);
     b.build("lamp over floor")
 }
 
@@ -211,16 +183,8 @@ fn lamp_over_floor() -> Scene {
 fn sun_and_blocker() -> Scene {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.6), Vec3::ZERO);
-    floor(&mut b, grey);
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, -0.3),
-            Vec3::new(-0.3, 0.5, -0.3),
-        ],
-        grey,
-    );
+    vlf_tests::scenes::up_square(&mut b, 0.0, 1.0, grey);
+    vlf_tests::scenes::up_square(&mut b, 0.5, 0.3, grey);
     let mut scene = b.build("sun and blocker");
     scene.suns.push(Sun {
         name: None,
@@ -274,16 +238,8 @@ fn lamps_and_blocker() -> Scene {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.6), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(2.0));
-    floor(&mut b, grey);
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, -0.3),
-            Vec3::new(-0.3, 0.5, -0.3),
-        ],
-        grey,
-    );
+    vlf_tests::scenes::up_square(&mut b, 0.0, 1.0, grey);
+    vlf_tests::scenes::up_square(&mut b, 0.5, 0.3, grey);
     b.quad(
         [
             Vec3::new(0.6, 0.9, -0.8),
@@ -316,7 +272,7 @@ fn gpu_gather_reads_a_point_light_as_i_cos_over_d_squared() {
     let Some(ctx) = gpu() else { return };
     let mut b = SceneBuilder::new();
     let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
-    floor(&mut b, black);
+    vlf_tests::scenes::up_square(&mut b, 0.0, 1.0, black);
     let mut scene = b.build("point light over a floor");
     let (pos, i) = (Vec3::new(0.2, 0.6, -0.1), 3.0f32);
     scene.lights = vec![PunctualLight {

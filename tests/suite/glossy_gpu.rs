@@ -181,15 +181,7 @@ fn gpu_matches_cpu_reference_on_sub_cell_mirrors() {
         transparency: Default::default(),
     });
     b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, wall);
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.99, -0.3),
-            Vec3::new(0.3, 0.99, -0.3),
-            Vec3::new(0.3, 0.99, 0.3),
-            Vec3::new(-0.3, 0.99, 0.3),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 0.99, 0.3, lamp);
     // 5 × 5 × 5 tiny squares (side 0.02, cells ≈ 0.11 wide here), each turned its own way.
     for i in 0..125 {
         let centre = Vec3::new((i % 5) as f32, (i / 5 % 5) as f32, (i / 25) as f32) * 0.2 - 0.4;

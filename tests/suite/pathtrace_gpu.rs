@@ -198,9 +198,7 @@ fn gpu_path_tracer_matches_cpu_and_mitsuba() {
 #[test]
 fn gpu_matches_cpu_on_materials_suns_and_sky() {
     let Some(ctx) = gpu() else { return };
-    use vlf_core::scene::{
-        FilterMode, Material, MaterialKind, SceneBuilder, TexRef, Texture, WrapMode,
-    };
+    use vlf_core::scene::{Material, MaterialKind, SceneBuilder, TexRef, Texture, WrapMode};
     let mut b = SceneBuilder::new();
     let base = Material {
         name: "m".into(),
@@ -239,15 +237,7 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         }),
         ..base.clone()
     });
-    b.quad(
-        [
-            Vec3::new(-2.0, 0.0, -2.0),
-            Vec3::new(-2.0, 0.0, 2.0),
-            Vec3::new(2.0, 0.0, 2.0),
-            Vec3::new(2.0, 0.0, -2.0),
-        ],
-        floor,
-    );
+    vlf_tests::scenes::hquad(&mut b, 0.0, 2.0, true, floor);
     b.aabox(
         Vec3::new(-1.0, 0.0, -1.0),
         Vec3::new(-0.2, 0.8, -0.2),
@@ -260,33 +250,14 @@ fn gpu_matches_cpu_on_materials_suns_and_sky() {
         false,
         mixed,
     );
-    b.quad(
-        [
-            Vec3::new(-0.5, 1.5, -0.5),
-            Vec3::new(0.5, 1.5, -0.5),
-            Vec3::new(0.5, 1.5, 0.5),
-            Vec3::new(-0.5, 1.5, 0.5),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.5, 0.5, lamp);
     let mut scene = b.build("materials");
     // A 4×4 checker, mirrored-repeat / clamp: uv from the builder are 0, so set some.
-    let pixels = (0..16)
-        .map(|i| {
-            let v = if (i + i / 4) % 2 == 0 { 1.0 } else { 0.2 };
-            glam::Vec4::new(v, v, v, 1.0)
-        })
-        .collect();
+    let grey = glam::Vec4::new(0.2, 0.2, 0.2, 1.0);
     scene.textures.push(Texture {
-        name: None,
-        width: 4,
-        height: 4,
-        pixels,
-        has_alpha: false,
         wrap_s: WrapMode::MirroredRepeat,
         wrap_t: WrapMode::ClampToEdge,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
+        ..scenes::checker(4, 1, glam::Vec4::ONE, grey)
     });
     for t in &mut scene.triangles {
         for (k, p) in t.p.iter().enumerate() {

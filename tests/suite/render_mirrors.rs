@@ -129,7 +129,7 @@ fn mirror_under_uniform_sky_reads_reflectance_times_sky_exactly() {
 #[test]
 fn textured_mirror_reads_reflectance_times_texture_times_sky() {
     use glam::Vec2;
-    use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
+    use vlf_core::scene::TexRef;
     let Some(ctx) = gpu() else { return };
     let (rho, sky) = (Vec3::new(0.9, 0.6, 0.3), Vec3::new(1.0, 2.0, 3.0));
     let mut scene = mirror_plane(rho, "textured mirror under sky");
@@ -137,23 +137,13 @@ fn textured_mirror_reads_reflectance_times_texture_times_sky() {
         index: 0,
         texcoord: 0,
     });
-    let n = 4u32;
-    scene.textures.push(Texture {
-        name: None,
-        width: n,
-        height: n,
-        pixels: (0..n * n)
-            .map(|i| match (i % n + i / n) % 2 {
-                0 => Vec4::new(1.0, 0.5, 0.25, 1.0),
-                _ => Vec4::new(0.1, 0.2, 0.9, 1.0),
-            })
-            .collect(),
-        has_alpha: false,
-        wrap_s: WrapMode::Repeat,
-        wrap_t: WrapMode::Repeat,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
-    });
+    let (even, odd) = (
+        Vec4::new(1.0, 0.5, 0.25, 1.0),
+        Vec4::new(0.1, 0.2, 0.9, 1.0),
+    );
+    scene
+        .textures
+        .push(vlf_tests::scenes::checker(4, 1, even, odd));
     for t in &mut scene.triangles {
         t.uv = t.p.map(|p| Vec2::new(p.x, p.z) * 0.5 + 0.5);
     }

@@ -5,9 +5,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::lightfield::{BakeParams, Iterations, LightField};
-use vlf_core::scene::{
-    FilterMode, Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture, WrapMode,
-};
+use vlf_core::scene::{Material, MaterialKind, Scene, SceneBuilder, TexRef, Texture, WrapMode};
 use vlf_gpu::render::final_radiance::{SurfaceLookup, surface_radiance, visible_side};
 use vlf_gpu::render::{CameraView, NO_FACE, Renderer};
 use vlf_tests::bakes;
@@ -17,23 +15,14 @@ const W: u32 = 96;
 const H: u32 = 96;
 
 /// A `size × size` texture of `cell × cell`-texel checker squares of values `a` and `b`.
+/// A grey `a`/`b` checker (scenes::checker) wrapping by `wrap`.
 fn checker(size: u32, cell: u32, a: f32, b: f32, wrap: WrapMode) -> Texture {
-    let pixels = (0..size * size)
-        .map(|i| {
-            let (x, y) = (i % size / cell, i / size / cell);
-            Vec4::new(a, a, a, 1.0).lerp(Vec4::new(b, b, b, 1.0), ((x + y) % 2) as f32)
-        })
-        .collect();
+    let grey = |v| Vec4::new(v, v, v, 1.0);
     Texture {
         name: Some("checker".into()),
-        width: size,
-        height: size,
-        pixels,
-        has_alpha: false,
         wrap_s: wrap,
         wrap_t: wrap,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
+        ..vlf_tests::scenes::checker(size, cell, grey(a), grey(b))
     }
 }
 
@@ -112,15 +101,7 @@ fn a_checker_finer_than_the_atlas_renders_at_full_resolution() {
     let mut b = SceneBuilder::new();
     let base = Vec3::new(1.0, 0.9, 0.8);
     let m = b.material(material(base, Some(0), Vec3::ZERO, None));
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    vlf_tests::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("checker floor");
     // 128 × 128 texels in 4 × 4-texel squares, tiled twice over the floor: 64 squares across.
     scene
@@ -268,15 +249,7 @@ fn textured_and_untextured_faces_render_alike_in_stills_and_the_window() {
     let floor = b.material(material(Vec3::splat(0.9), Some(0), Vec3::ZERO, None));
     let wall = b.diffuse("wall", Vec3::new(0.2, 0.6, 0.3), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        floor,
-    );
+    vlf_tests::scenes::hquad(&mut b, 0.0, 1.0, true, floor);
     b.quad(
         [
             Vec3::new(-1.0, 0.0, -1.0),
@@ -286,15 +259,7 @@ fn textured_and_untextured_faces_render_alike_in_stills_and_the_window() {
         ],
         wall,
     );
-    b.quad(
-        [
-            Vec3::new(-0.3, 1.4, -0.3),
-            Vec3::new(0.3, 1.4, -0.3),
-            Vec3::new(0.3, 1.4, 0.3),
-            Vec3::new(-0.3, 1.4, 0.3),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.4, 0.3, lamp);
     let mut scene = b.build("checker floor, wall, lamp");
     scene
         .textures

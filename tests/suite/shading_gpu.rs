@@ -10,7 +10,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 use vlf_core::gather::{Converged, final_gather};
-use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, FACE_DIFFUSE, Iterations};
 use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings};
 use vlf_core::scene::{
     Corners, FilterMode, Material, MaterialKind, Scene, SceneBuilder, Sun, TexRef, Texture,
@@ -102,15 +102,7 @@ fn attribute_scene() -> Scene {
         };
         b.triangle_with([w[i], w[j], w[k]], wall, corners);
     }
-    b.quad(
-        [
-            Vec3::new(-0.2, 1.2, -0.2),
-            Vec3::new(0.2, 1.2, -0.2),
-            Vec3::new(0.2, 1.2, 0.2),
-            Vec3::new(-0.2, 1.2, 0.2),
-        ],
-        lamp,
-    );
+    vlf_tests::scenes::down_square(&mut b, 1.2, 0.2, lamp);
     let mut scene = b.build("attributes");
     scene.textures.push(four_colours());
     scene.materials[wall as usize].base_color_texture = Some(TexRef {
@@ -152,15 +144,7 @@ fn gpu_gather_matches_cpu_with_shading_normals_colours_and_uv1() {
         first_bounce: None,
         ..prop.converged(SKY, 2.0 / 32.0)
     };
-    let gp = GatherParams {
-        texel_scale: 1.0,
-        indirect_texel_scale: 2.0,
-        light_samples: 16,
-        direct_rays: 9,
-        indirect_rays: 16,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = vlf_tests::bakes::fixed_gather(1.0, 2.0, [16, 9, 16]);
     let cpu = final_gather(&scene, &field, &gp, 0).unwrap();
     let pipelines = GatherPipelines::of(ctx);
     let gpu = vlf_gpu::gather::final_gather_with(
@@ -348,15 +332,7 @@ fn colours_and_second_uv_set_render_analytically_under_a_sky() {
     });
     let sky = Vec3::new(1.0, 2.0, 3.0);
     let params = BakeParams {
-        final_gather: Some(GatherParams {
-            texel_scale: 1.0,
-            indirect_texel_scale: 2.0,
-            light_samples: 4,
-            direct_rays: 4,
-            indirect_rays: 4,
-            sampling: Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: Some(vlf_tests::bakes::fixed_gather(1.0, 2.0, [4, 4, 4])),
         ..small_params(sky)
     };
     let lf = vlf_core::pipeline::bake_cpu(&scene, &params).unwrap();

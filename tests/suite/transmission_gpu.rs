@@ -10,7 +10,7 @@ use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference;
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::{Hit, PinholeCamera, PreparedScene, Ray, RenderSettings, Rng};
 use vlf_gpu::gather::{self, GatherOptions, GatherPipelines};
 use vlf_gpu::raytrace::{GpuPathTracer, GpuRenderOptions, GpuScene, Kernel, Query, RayEngine};
@@ -166,15 +166,7 @@ fn gpu_path_tracer_passes_half_the_light() {
 #[test]
 fn gpu_final_gather_passes_half_the_light() {
     let Some(ctx) = gpu() else { return };
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 256,
-        direct_rays: 16,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = vlf_tests::bakes::fixed_gather(2.0, 4.0, [256, 16, 4]);
     let p = BakeParams {
         iterations: Iterations::Fixed(1),
         ..params()

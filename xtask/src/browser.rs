@@ -293,18 +293,8 @@ fn base64_decode(s: &str) -> Result<Vec<u8>> {
 
 /// Runs `npm ci` in `web/` unless its pinned three.js is installed.
 fn ensure_web_installed(root: &Path) -> Result<()> {
-    let dir = root.join(WEB_DIR);
-    let lock: Value = serde_json::from_slice(
-        &std::fs::read(dir.join("package-lock.json")).context("reading web/package-lock.json")?,
-    )?;
-    let pinned = lock["packages"]["node_modules/three"]["version"]
-        .as_str()
-        .context("web/package-lock.json does not pin three")?;
-    let installed = std::fs::read(dir.join("node_modules/three/package.json"))
-        .ok()
-        .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
-        .and_then(|p| p["version"].as_str().map(str::to_owned));
-    if installed.as_deref() == Some(pinned) {
+    let (pinned, installed) = crate::validate::npm_pinned(&root.join(WEB_DIR), "three")?;
+    if installed {
         return Ok(());
     }
     step(

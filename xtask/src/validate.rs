@@ -129,19 +129,8 @@ fn judge(entry: &Value) -> Result<Option<String>> {
 /// installed there.
 fn ensure_installed(repo_root: &Path) -> Result<()> {
     let dir = repo_root.join(VALIDATOR_DIR);
-    let lock: Value = serde_json::from_slice(
-        &std::fs::read(dir.join("package-lock.json"))
-            .context("reading the validator's package-lock.json")?,
-    )
-    .context("parsing the validator's package-lock.json")?;
-    let pinned = lock["packages"]["node_modules/gltf-validator"]["version"]
-        .as_str()
-        .context("package-lock.json does not pin gltf-validator")?;
-    let installed = std::fs::read(dir.join("node_modules/gltf-validator/package.json"))
-        .ok()
-        .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
-        .and_then(|p| p["version"].as_str().map(str::to_owned));
-    if installed.as_deref() == Some(pinned) {
+    let (pinned, installed) = npm_pinned(&dir, "gltf-validator")?;
+    if installed {
         return Ok(());
     }
 
@@ -163,6 +152,25 @@ fn ensure_installed(repo_root: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The version of `package` that `dir/package-lock.json` pins, and whether `dir/node_modules`
+/// holds that version (then `npm ci` there has nothing to do).
+pub(crate) fn npm_pinned(dir: &Path, package: &str) -> Result<(String, bool)> {
+    let lock_path = dir.join("package-lock.json");
+    let lock: Value = serde_json::from_slice(
+        &std::fs::read(&lock_path).with_context(|| format!("reading {}", lock_path.display()))?,
+    )
+    .with_context(|| format!("parsing {}", lock_path.display()))?;
+    let pinned = lock["packages"][format!("node_modules/{package}")]["version"]
+        .as_str()
+        .with_context(|| format!("{} does not pin {package}", lock_path.display()))?;
+    let installed = std::fs::read(dir.join(format!("node_modules/{package}/package.json")))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<Value>(&b).ok())
+        .and_then(|p| p["version"].as_str().map(str::to_owned));
+    let current = installed.as_deref() == Some(pinned);
+    Ok((pinned.to_owned(), current))
+}
+
 /// Where an issue is: its JSON pointer (glTF) or byte offset (GLB).
 fn location(message: &Value) -> String {
     match (message["pointer"].as_str(), message["offset"].as_u64()) {
@@ -179,5 +187,38 @@ fn run(cmd: &mut Command, program: &str) -> Result<Output> {
             bail!("`{program}` was not found: {INSTALL_HINT}")
         }
         Err(e) => Err(e).with_context(|| format!("running `{program}`")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::npm_pinned;
+
+    /// The pinned version is read from the lock file; installed only when node_modules holds
+    /// that same version; a lock file without the package is an error naming the file.
+    #[test]
+    fn npm_pinned_compares_the_lock_with_node_modules() {
+        let dir = std::env::temp_dir().join(format!("vlf-xtask-npm-{}", std::process::id()));
+        let pkg = dir.join("node_modules/left-pad");
+        std::fs::create_dir_all(&pkg).unwrap();
+        let lock = r#"{"packages": {"node_modules/left-pad": {"version": "1.3.0"}}}"#;
+        std::fs::write(dir.join("package-lock.json"), lock).unwrap();
+        assert_eq!(
+            npm_pinned(&dir, "left-pad").unwrap(),
+            ("1.3.0".into(), false)
+        );
+        std::fs::write(pkg.join("package.json"), r#"{"version": "1.2.0"}"#).unwrap();
+        assert_eq!(
+            npm_pinned(&dir, "left-pad").unwrap(),
+            ("1.3.0".into(), false)
+        );
+        std::fs::write(pkg.join("package.json"), r#"{"version": "1.3.0"}"#).unwrap();
+        assert_eq!(
+            npm_pinned(&dir, "left-pad").unwrap(),
+            ("1.3.0".into(), true)
+        );
+        let e = npm_pinned(&dir, "three").unwrap_err().to_string();
+        assert!(e.contains("package-lock.json does not pin three"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

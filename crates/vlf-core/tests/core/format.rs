@@ -16,9 +16,9 @@ use vlf_core::format::shading::{FileMaterial, FileTexture, FileUvs};
 use vlf_core::format::{self, FormatError};
 use vlf_core::hash;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, Iterations,
-    LightField, NO_TEXTURE, NonFiniteRadiance, Radiance, RadianceEncoding, Shading,
-    SurfaceMaterial, SurfaceTexture,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, Iterations, LightField,
+    NO_TEXTURE, NonFiniteRadiance, Radiance, RadianceEncoding, Shading, SurfaceMaterial,
+    SurfaceTexture,
 };
 use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
 
@@ -187,15 +187,7 @@ fn synthetic_in(faces: u32, w: u32, h: u32, seed: u64, enc: RadianceEncoding) ->
     let params = BakeParams {
         directions: 21,
         iterations: Iterations::Fixed(3),
-        final_gather: Some(GatherParams {
-            texel_scale: 0.5,
-            indirect_texel_scale: 2.0,
-            light_samples: 64,
-            direct_rays: 16,
-            indirect_rays: 256,
-            sampling: vlf_core::lightfield::Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: Some(crate::bakes::fixed_gather(0.5, 2.0, [64, 16, 256])),
         ..BakeParams::paper()
     };
     LightField {

@@ -24,8 +24,8 @@ use vlf_core::format::disk::{self, FileHeader, PREAMBLE_LEN, Preamble, SectionEn
 use vlf_core::hash;
 use vlf_core::lightfield::encoding::f16_encode;
 use vlf_core::lightfield::{
-    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, GatherParams, LightField,
-    NO_TEXTURE, Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
+    BakeFace, BakeParams, BakeStats, BakeTriangle, DEFAULT_ENCODING, LightField, NO_TEXTURE,
+    Radiance, RadianceEncoding, Shading, SurfaceMaterial, SurfaceTexture,
 };
 use vlf_core::scene::{Camera, SceneSummary, Similarity, WrapMode};
 
@@ -152,15 +152,7 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut R
     };
     let params = BakeParams {
         directions: 6,
-        final_gather: (textures > 0).then_some(GatherParams {
-            texel_scale: 0.5,
-            indirect_texel_scale: 1.0,
-            light_samples: 16,
-            direct_rays: 4,
-            indirect_rays: 64,
-            sampling: vlf_core::lightfield::Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: (textures > 0).then_some(crate::bakes::fixed_gather(0.5, 1.0, [16, 4, 64])),
         ..BakeParams::paper()
     };
     LightField {
@@ -204,33 +196,19 @@ fn field(faces: u32, w: u32, h: u32, cameras: bool, textures: usize, rng: &mut R
 
 fn seeds() -> Vec<Vec<u8>> {
     let mut rng = Rng(0xfeed);
-    let p = Path::new("seed.vlf");
-    vec![
-        format::to_bytes(
-            &field(3, 6, 5, true, 2, &mut rng),
-            RadianceEncoding::RgbF16,
-            p,
-        )
-        .unwrap(),
-        format::to_bytes(
-            &field(2, 4, 4, false, 1, &mut rng),
-            RadianceEncoding::Rgb9e5,
-            p,
-        )
-        .unwrap(),
-        format::to_bytes(
-            &field(0, 1, 1, true, 0, &mut rng),
-            RadianceEncoding::RgbF16,
-            p,
-        )
-        .unwrap(),
-        format::to_bytes(
-            &field(1, 1, 1, false, 0, &mut rng),
-            RadianceEncoding::Rgb9e5,
-            p,
-        )
-        .unwrap(),
+    // (faces, width, height, cameras, textures, encoding) of each seed, drawn in this order.
+    [
+        (3, 6, 5, true, 2, RadianceEncoding::RgbF16),
+        (2, 4, 4, false, 1, RadianceEncoding::Rgb9e5),
+        (0, 1, 1, true, 0, RadianceEncoding::RgbF16),
+        (1, 1, 1, false, 0, RadianceEncoding::Rgb9e5),
     ]
+    .into_iter()
+    .map(|(faces, w, h, cameras, textures, enc)| {
+        let lf = field(faces, w, h, cameras, textures, &mut rng);
+        format::to_bytes(&lf, enc, Path::new("seed.vlf")).unwrap()
+    })
+    .collect()
 }
 
 // ----- mutations ----------------------------------------------------------------------------

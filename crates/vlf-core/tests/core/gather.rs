@@ -40,15 +40,7 @@ fn bake_and_gather_with_field(
 }
 
 fn gp(texel: f32, indirect: f32, light: u32, rays: u32) -> GatherParams {
-    GatherParams {
-        texel_scale: texel,
-        indirect_texel_scale: indirect,
-        light_samples: light,
-        direct_rays: light.div_ceil(4),
-        indirect_rays: rays,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    crate::bakes::fixed_gather(texel, indirect, [light, light.div_ceil(4), rays])
 }
 
 /// (texel index, VLF centre, irradiance) of every covered texel of `face` on `side`.
@@ -79,15 +71,7 @@ fn face_with_normal(scene: &Scene, n: Vec3) -> usize {
 fn open_floor_under_a_uniform_sky_receives_pi_times_the_sky() {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, grey);
     let scene = b.build("sky floor");
     let sky = Vec3::new(1.0, 0.5, 0.25);
     let g = bake_and_gather(&scene, sky, &gp(0.1, 0.2, 4, 16), 0);
@@ -129,25 +113,9 @@ fn emitter_over_a_floor_gives_the_quadrature_irradiance() {
     let mut b = SceneBuilder::new();
     let grey = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, grey);
     // Faces down (counter-clockwise seen from below).
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, -0.2),
-            Vec3::new(0.2, 0.8, 0.2),
-            Vec3::new(-0.2, 0.8, 0.2),
-        ],
-        lamp,
-    );
+    crate::scenes::down_square(&mut b, 0.8, 0.2, lamp);
     let scene = b.build("lamp over floor");
     let xf = scene.to_vlf;
     let g = bake_and_gather(&scene, Vec3::ZERO, &gp(0.08, 0.16, 64, 16), 0);
@@ -174,25 +142,9 @@ fn a_sun_casts_a_sharp_shadow_through_stratified_points() {
     // Black surfaces: no indirect light, so the irradiance is the sun's alone.
     let mut b = SceneBuilder::new();
     let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, -1.0),
-        ],
-        black,
-    );
+    crate::scenes::up_square(&mut b, 0.0, 1.0, black);
     // A blocker [-0.3, 0.3]² at height 0.5: under a vertical sun its shadow is that square.
-    b.quad(
-        [
-            Vec3::new(-0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, 0.3),
-            Vec3::new(0.3, 0.5, -0.3),
-            Vec3::new(-0.3, 0.5, -0.3),
-        ],
-        black,
-    );
+    crate::scenes::up_square(&mut b, 0.5, 0.3, black);
     let mut scene = b.build("sun and blocker");
     scene.suns.push(Sun {
         name: None,
@@ -361,15 +313,7 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
     let black = b.diffuse("black", Vec3::ZERO, Vec3::ZERO);
     let lamp = b.diffuse("lamp", Vec3::ZERO, Vec3::ONE);
     // The ceiling faces down (counter-clockwise seen from below).
-    b.quad(
-        [
-            Vec3::new(-1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(-1.0, 1.0, 1.0),
-        ],
-        black,
-    );
+    crate::scenes::down_square(&mut b, 1.0, 1.0, black);
     let (lo, hi) = (1.0 - h, 1.0);
     let c = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     b.quad(
@@ -392,15 +336,7 @@ fn a_lamp_flush_with_the_ceiling_lights_it_as_its_emitting_sides_do() {
     // samples and cosine rays 4 : 1 as in the default bake (64 and 16), 16× as many so that the
     // texel one out, lit mainly by the few light samples that land on a side, is measured.
     let step = 0.05f32;
-    let p = GatherParams {
-        texel_scale: step * xf.scale,
-        indirect_texel_scale: 2.0 * step * xf.scale,
-        light_samples: 1024,
-        direct_rays: 256,
-        indirect_rays: 4,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let p = crate::bakes::fixed_gather(step * xf.scale, 2.0 * step * xf.scale, [1024, 256, 4]);
     let g = bake_and_gather(&scene, Vec3::ZERO, &p, 0);
     let ceiling = face_with_normal(&scene, Vec3::NEG_Y);
     let f = &g.atlas.faces[ceiling];
@@ -456,15 +392,7 @@ fn the_result_does_not_depend_on_the_thread_count() {
         false,
         white,
     );
-    b.quad(
-        [
-            Vec3::new(-0.2, 0.99, -0.2),
-            Vec3::new(0.2, 0.99, -0.2),
-            Vec3::new(0.2, 0.99, 0.2),
-            Vec3::new(-0.2, 0.99, 0.2),
-        ],
-        lamp,
-    );
+    crate::scenes::down_square(&mut b, 0.99, 0.2, lamp);
     let scene = b.build("box room");
     let p = gp(0.1, 0.2, 9, 16);
     let one = bake_and_gather(&scene, Vec3::ZERO, &p, 1);

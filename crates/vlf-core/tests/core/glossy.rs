@@ -341,7 +341,7 @@ fn folded_metal_renders_with_its_baked_albedo() {
 #[test]
 fn textured_metal_reflects_with_its_texture_mean() {
     use glam::{Vec2, Vec4};
-    use vlf_core::scene::{FilterMode, TexRef, Texture, WrapMode};
+    use vlf_core::scene::TexRef;
     let mut scene = metal_plane(0.0);
     scene.materials[0].base_color = Vec3::splat(0.8);
     scene.materials[0].base_color_texture = Some(TexRef {
@@ -349,20 +349,10 @@ fn textured_metal_reflects_with_its_texture_mean() {
         texcoord: 0,
     });
     // Red: 16 × 16 squares of 0 and 1 (mean ½), green ½, blue 1.
-    let n = 16u32;
-    scene.textures.push(Texture {
-        name: None,
-        width: n,
-        height: n,
-        pixels: (0..n * n)
-            .map(|i| Vec4::new(((i % n + i / n) % 2) as f32, 0.5, 1.0, 1.0))
-            .collect(),
-        has_alpha: false,
-        wrap_s: WrapMode::Repeat,
-        wrap_t: WrapMode::Repeat,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
-    });
+    let (even, odd) = (Vec4::new(0.0, 0.5, 1.0, 1.0), Vec4::new(1.0, 0.5, 1.0, 1.0));
+    scene
+        .textures
+        .push(crate::scenes::checker(16, 1, even, odd));
     for t in &mut scene.triangles {
         t.uv = t.p.map(|p| Vec2::new(p.x, p.z) * 0.5 + 0.5);
     }

@@ -1,7 +1,7 @@
 //! Mirrors and mixed surfaces in the CPU reference propagator against analytic answers.
 
 use crate::bakes::{params, propagate};
-use crate::scenes::hquad;
+use crate::scenes::{hquad, hrect};
 use glam::{Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::bake::reference;
@@ -94,24 +94,8 @@ fn parallel_mirrors_give_the_geometric_series() {
         recv,
     );
     // Floor mirror facing up, ceiling mirror facing down.
-    b.quad(
-        [
-            Vec3::new(-len, 0.0, -depth),
-            Vec3::new(-len, 0.0, depth),
-            Vec3::new(len, 0.0, depth),
-            Vec3::new(len, 0.0, -depth),
-        ],
-        m,
-    );
-    b.quad(
-        [
-            Vec3::new(-len, h, -depth),
-            Vec3::new(len, h, -depth),
-            Vec3::new(len, h, depth),
-            Vec3::new(-len, h, depth),
-        ],
-        m,
-    );
+    hrect(&mut b, 0.0, (-len, len), (-depth, depth), true, m);
+    hrect(&mut b, h, (-len, len), (-depth, depth), false, m);
     let scene = b.build("mirror corridor");
     let (prep, _set, out) = propagate(
         &scene,

@@ -179,6 +179,18 @@ fn settings(spp: u32, sky: Vec3) -> RenderSettings {
     }
 }
 
+/// `prep` rendered `size`² from [`look_down`] (from below when `from_below`) at `spp` under
+/// `sky`.
+fn look_down_at(prep: &PreparedScene, size: u32, from_below: bool, spp: u32, sky: Vec3) -> Image {
+    render(
+        prep,
+        &look_down(size, size, from_below),
+        &settings(spp, sky),
+        &|_, _| {},
+    )
+    .unwrap()
+}
+
 /// A Lambertian square of albedo a under a constant sky L reads exactly a·L (README: "a fully
 /// exposed diffuse surface of albedo a reads a × sky"), seen from either side; every sample
 /// gives exactly that value (the reflected ray always escapes), so the tolerance is rounding.
@@ -186,24 +198,12 @@ fn settings(spp: u32, sky: Vec3) -> RenderSettings {
 fn sky_furnace_is_exact_from_both_sides() {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("grey", Vec3::new(0.5, 0.25, 0.8), Vec3::ZERO);
-    let q = [
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-    ];
-    b.quad(q, m);
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("sky furnace");
     let prep = PreparedScene::new(&scene);
     let sky = Vec3::new(2.0, 1.0, 0.5);
     for below in [false, true] {
-        let img = render(
-            &prep,
-            &look_down(16, 16, below),
-            &settings(4, sky),
-            &|_, _| {},
-        )
-        .unwrap();
+        let img = look_down_at(&prep, 16, below, 4, sky);
         // The square fills the view (half-width at distance 2 with 30° fov ≈ 0.54 < 1).
         for p in &img.pixels {
             let want = [1.0f32, 0.25, 0.4];
@@ -221,34 +221,16 @@ fn emission_is_one_sided_and_exact() {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("lamp", Vec3::ZERO, Vec3::new(17.0, 12.0, 4.0));
     // Front (CCW seen from +y) faces up.
-    let q = [
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-    ];
-    b.quad(q, m);
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("lamp");
     let prep = PreparedScene::new(&scene);
-    let top = render(
-        &prep,
-        &look_down(8, 8, false),
-        &settings(2, Vec3::ZERO),
-        &|_, _| {},
-    )
-    .unwrap();
+    let top = look_down_at(&prep, 8, false, 2, Vec3::ZERO);
     assert!(
         top.pixels.iter().all(|p| *p == [17.0, 12.0, 4.0]),
         "{:?}",
         top.pixels[0]
     );
-    let bottom = render(
-        &prep,
-        &look_down(8, 8, true),
-        &settings(2, Vec3::ZERO),
-        &|_, _| {},
-    )
-    .unwrap();
+    let bottom = look_down_at(&prep, 8, true, 2, Vec3::ZERO);
     assert!(bottom.pixels.iter().all(|p| *p == [0.0; 3]));
 }
 
@@ -258,13 +240,7 @@ fn emission_is_one_sided_and_exact() {
 fn sun_irradiance_is_radiometric() {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("white", Vec3::splat(0.6), Vec3::ZERO);
-    let q = [
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-    ];
-    b.quad(q, m);
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("sun");
     let theta = 60f32.to_radians();
     scene.suns.push(scene::Sun {
@@ -273,25 +249,13 @@ fn sun_irradiance_is_radiometric() {
         irradiance: Vec3::splat(1000.0),
     });
     let prep = PreparedScene::new(&scene);
-    let img = render(
-        &prep,
-        &look_down(8, 8, false),
-        &settings(2, Vec3::ZERO),
-        &|_, _| {},
-    )
-    .unwrap();
+    let img = look_down_at(&prep, 8, false, 2, Vec3::ZERO);
     let want = 0.6 * 1000.0 * 0.5 / std::f32::consts::PI;
     for p in &img.pixels {
         assert!((p[0] - want).abs() < 1e-3 * want, "{} vs {want}", p[0]);
     }
     // Lit from above, seen from below: the plane shadows itself.
-    let img = render(
-        &prep,
-        &look_down(8, 8, true),
-        &settings(2, Vec3::ZERO),
-        &|_, _| {},
-    )
-    .unwrap();
+    let img = look_down_at(&prep, 8, true, 2, Vec3::ZERO);
     assert!(img.pixels.iter().all(|p| *p == [0.0; 3]));
 }
 

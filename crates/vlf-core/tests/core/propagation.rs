@@ -48,9 +48,7 @@ fn furnace_closed_box_reaches_emission_over_one_minus_albedo() {
             max: 100,
         },
     );
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let want = le / (1.0 - rho);
     for face in 0..prep.faces.len() {
         let (mean, max_dev) = face_stats(
@@ -81,9 +79,7 @@ fn open_plane_under_sky_reads_albedo_times_sky() {
         sky,
         ..params(46, 32, Iterations::Fixed(2))
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     for side in 0..2 {
         let (mean, max_dev) = face_stats(
             &prep,
@@ -114,15 +110,7 @@ fn a_sun_lights_only_the_side_facing_it() {
     let rho = 0.5;
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("sun plane");
     let e_sun = Vec3::new(3.0, 2.0, 1.0);
     let travel = Vec3::new(0.5, -0.75f32.sqrt(), 0.0); // 30° from the vertical, downwards
@@ -132,9 +120,7 @@ fn a_sun_lights_only_the_side_facing_it() {
         irradiance: e_sun,
     });
     let params = params(46, 32, Iterations::Fixed(1));
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     // Which side faces up depends on the face's winding: find it.
     let up = if prep.faces[0].normal().y > 0.0 { 0 } else { 1 };
     let lit = e_sun * 0.75f32.sqrt();
@@ -161,9 +147,7 @@ fn cornell_energy_balances_within_half_a_percent() {
     );
     let scene = vlf_core::scene::load(std::path::Path::new(path)).unwrap();
     let params = params(126, 32, Iterations::Fixed(4));
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (_, _, out) = crate::bakes::propagate(&scene, &params);
     let e = &out.energy;
     let imbalance = e.relative_imbalance();
     assert!(
@@ -228,32 +212,14 @@ fn parallel_squares_error(directions: u32, perturb: u32) -> (f64, f32) {
     let light = b.diffuse("light", Vec3::ZERO, Vec3::splat(le));
     let floor = b.diffuse("floor", Vec3::splat(rho), Vec3::ZERO);
     // Emitter at y = h facing down, receiver at y = 0 facing up, both [-half, half]².
-    b.quad(
-        [
-            Vec3::new(-half, h, -half),
-            Vec3::new(half, h, -half),
-            Vec3::new(half, h, half),
-            Vec3::new(-half, h, half),
-        ],
-        light,
-    );
-    b.quad(
-        [
-            Vec3::new(-half, 0.0, -half),
-            Vec3::new(-half, 0.0, half),
-            Vec3::new(half, 0.0, half),
-            Vec3::new(half, 0.0, -half),
-        ],
-        floor,
-    );
+    crate::scenes::down_square(&mut b, h, half, light);
+    crate::scenes::hquad(&mut b, 0.0, half, true, floor);
     let scene = b.build("parallel squares");
     let params = BakeParams {
         perturb,
         ..params(directions, 64, Iterations::Fixed(1))
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let radiance = prep.outgoing_radiance(&out.irradiance);
     let fi = scene.faces.iter().position(|f| f.normal.y > 0.5).unwrap();
     let f = prep.faces[fi];
@@ -324,7 +290,7 @@ fn form_factor_point_to_square(x: f32, z: f32, s: f32, h: f32) -> f32 {
 #[test]
 fn textured_texels_hold_the_texture_mean_over_their_area() {
     use glam::Vec2;
-    use vlf_core::scene::{FilterMode, Material, MaterialKind, TexRef, Texture, WrapMode};
+    use vlf_core::scene::{Material, MaterialKind, TexRef};
     let (base, le) = (0.8f32, 2.0f32);
     let mut b = SceneBuilder::new();
     let tex = Some(TexRef {
@@ -343,31 +309,12 @@ fn textured_texels_hold_the_texture_mean_over_their_area() {
         roughness: 1.0,
         transparency: Default::default(),
     });
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("checker");
     // 16 × 16 squares of 0 and 1 (mean ½), turned 30° against the chart.
-    let n = 16u32;
-    scene.textures.push(Texture {
-        name: None,
-        width: n,
-        height: n,
-        pixels: (0..n * n)
-            .map(|i| Vec4::splat(((i % n + i / n) % 2) as f32))
-            .collect(),
-        has_alpha: false,
-        wrap_s: WrapMode::Repeat,
-        wrap_t: WrapMode::Repeat,
-        filter: FilterMode::Linear,
-        gltf_texture: 0,
-    });
+    scene
+        .textures
+        .push(scenes::checker(16, 1, Vec4::ZERO, Vec4::ONE));
     let (s, c) = 30f32.to_radians().sin_cos();
     let uv_of = |p: Vec3| Vec2::new(c * p.x - s * p.z, s * p.x + c * p.z) * 0.5;
     for t in &mut scene.triangles {

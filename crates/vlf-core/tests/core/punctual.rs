@@ -13,7 +13,7 @@ use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, punctual, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, GatherParams, Iterations};
 use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings, render};
 use vlf_core::scene::{PunctualKind, PunctualLight, Scene, SceneBuilder};
 
@@ -35,15 +35,7 @@ fn light(kind: PunctualKind, position: Vec3, intensity: f32) -> PunctualLight {
 fn plane_scene(albedo: f32, lights: Vec<PunctualLight>) -> Scene {
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(albedo), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-HALF, 0.0, HALF),
-            Vec3::new(HALF, 0.0, HALF),
-            Vec3::new(HALF, 0.0, -HALF),
-            Vec3::new(-HALF, 0.0, -HALF),
-        ],
-        m,
-    );
+    crate::scenes::up_square(&mut b, 0.0, HALF, m);
     let mut scene = b.build("lit plane");
     scene.lights = lights;
     scene
@@ -182,9 +174,7 @@ fn a_point_light_in_a_closed_box_conserves_energy() {
         threshold: 1e-5,
         max: 100,
     });
-    let prep = BakeScene::new(&scene, &p).unwrap();
-    let set = DirectionSet::at_least(p.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &p);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &p);
     let s2 = f64::from(scene.to_vlf.scale).powi(2);
     let sum = |e: &[[f32; 4]]| -> f64 {
         e.iter()
@@ -231,15 +221,7 @@ fn gather(scene: &Scene, gp: &GatherParams) -> Gathered {
 }
 
 fn fixed() -> GatherParams {
-    GatherParams {
-        texel_scale: 0.5,
-        indirect_texel_scale: 2.0,
-        light_samples: 64,
-        direct_rays: 16,
-        indirect_rays: 16,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    crate::bakes::fixed_gather(0.5, 2.0, [64, 16, 16])
 }
 
 /// The default guided and adaptive gather (with its denoiser), at the test's texel sizes.

@@ -8,7 +8,6 @@ use std::path::PathBuf;
 
 use glam::{Vec3, Vec4};
 use vlf_core::bake::{BakeScene, reference};
-use vlf_core::directions::DirectionSet;
 use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::radiosity::{self, FormFactors, RadiosityError, RadiositySettings};
 use vlf_core::scene::{Scene, SceneBuilder, Sun};
@@ -137,24 +136,8 @@ fn face_form_factors_match_quadrature_and_are_reciprocal() {
     let m = b.diffuse("grey", Vec3::splat(0.5), Vec3::ZERO);
     let (s, t) = (big / 2.0, small / 2.0);
     // Bottom square faces +y, top square faces −y.
-    b.quad(
-        [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(-s, 0.0, s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(s, 0.0, -s),
-        ],
-        m,
-    );
-    b.quad(
-        [
-            Vec3::new(-t, h, -t),
-            Vec3::new(t, h, -t),
-            Vec3::new(t, h, t),
-            Vec3::new(-t, h, t),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, s, true, m);
+    crate::scenes::down_square(&mut b, h, t, m);
     let scene = b.build("two squares");
     let prep = BakeScene::new(&scene, &params(32, 1.0)).unwrap();
     assert_eq!(prep.faces.len(), 2);
@@ -228,15 +211,7 @@ fn open_plane_under_sky_and_sun() {
     let (sky, rho, e_sun) = (Vec3::new(2.0, 1.0, 0.5), 0.6, Vec3::new(3.0, 2.0, 1.0));
     let mut b = SceneBuilder::new();
     let m = b.diffuse("plane", Vec3::splat(rho), Vec3::ZERO);
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let mut scene = b.build("sky plane");
     let theta = 0.6f32;
     scene.suns.push(Sun {
@@ -358,9 +333,7 @@ fn cornell_box_agrees_with_the_vlf_reference_bake() {
         directions: 126,
         ..params(32, 2.0)
     };
-    let prep = BakeScene::new(&scene, &p).unwrap();
-    let set = DirectionSet::at_least(p.directions).unwrap();
-    let vlf = reference::propagate(&prep, &set, &p);
+    let (prep, _, vlf) = crate::bakes::propagate(&scene, &p);
     let vlf_radiance = prep.outgoing_radiance(&vlf.irradiance);
     let s = settings(1024);
     let ff = radiosity::form_factors(&prep, p.sky, &s).unwrap();

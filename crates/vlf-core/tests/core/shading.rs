@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3, Vec4};
 use vlf_core::bake::BakeScene;
 use vlf_core::format;
 use vlf_core::gather::{Gathered, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::{PinholeCamera, PreparedScene, RenderSettings, render};
 use vlf_core::scene::{Corners, FilterMode, Scene, SceneBuilder, Sun, TexRef, Texture, WrapMode};
 
@@ -17,15 +17,7 @@ use vlf_core::scene::{Corners, FilterMode, Scene, SceneBuilder, Sun, TexRef, Tex
 fn bake_and_gather(scene: &Scene, sky: Vec3, texel: f32, points: u32) -> Gathered {
     let p = Propagation::new(scene, &under_gather(sky, Iterations::Fixed(4)));
     let field = p.converged(sky, 1.0);
-    let gp = GatherParams {
-        texel_scale: texel,
-        indirect_texel_scale: 2.0 * texel,
-        light_samples: points,
-        direct_rays: points,
-        indirect_rays: points,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = crate::bakes::fixed_gather(texel, 2.0 * texel, [points, points, points]);
     final_gather(scene, &field, &gp, 0).unwrap()
 }
 
@@ -132,15 +124,7 @@ fn vertex_colours_multiply_the_albedo_in_the_bake() {
         b.triangle_with([q[0], q[1], q[2]], floor, corners.clone());
         b.triangle_with([q[0], q[2], q[3]], floor, corners);
         let h = 0.5;
-        b.quad(
-            [
-                Vec3::new(-0.3, h, -0.3),
-                Vec3::new(0.3, h, -0.3),
-                Vec3::new(0.3, h, 0.3),
-                Vec3::new(-0.3, h, 0.3),
-            ],
-            black,
-        );
+        crate::scenes::down_square(&mut b, h, 0.3, black);
         b.build("coloured floor")
     };
     let (black, plain, coloured) = (build(false, 0.0), build(false, 0.8), build(true, 0.8));

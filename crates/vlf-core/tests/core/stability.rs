@@ -692,15 +692,11 @@ fn gather(
 /// Gather settings of these cases: stored texels half the ray spacing, indirect grid one ray
 /// spacing (the defaults), fewer samples than a bake's.
 fn gather_params(light_samples: u32, indirect_rays: u32) -> GatherParams {
-    GatherParams {
-        texel_scale: 0.5,
-        indirect_texel_scale: 1.0,
-        light_samples,
-        direct_rays: light_samples.div_ceil(4),
-        indirect_rays,
-        sampling: vlf_core::lightfield::Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    }
+    crate::bakes::fixed_gather(
+        0.5,
+        1.0,
+        [light_samples, light_samples.div_ceil(4), indirect_rays],
+    )
 }
 
 /// Outgoing radiance of a gathered atlas (L_e + ρ·E/π, what the renderer shows).

@@ -141,15 +141,7 @@ fn marble_beam_profile() {
     let m = b.diffuse("marble", Vec3::ONE, Vec3::ZERO);
     b.translucent(m, marble());
     let s = 0.004; // ±4 mm: the profile is above 1 % of its peak within 3 mm (red)
-    b.quad(
-        [
-            Vec3::new(-s, 0.0, -s),
-            Vec3::new(-s, 0.0, s),
-            Vec3::new(s, 0.0, s),
-            Vec3::new(s, 0.0, -s),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, s, true, m);
     let scene = b.build("marble beam");
     let scale = scene.to_vlf.scale;
     let h_mm = 0.05;
@@ -236,8 +228,6 @@ fn received(prep: &BakeScene, irr: &[[f32; 4]], faces: &[usize], side: usize) ->
 /// received; and the propagation's energy bookkeeping balances.
 #[test]
 fn lamp_in_diffuse_transmitting_shade() {
-    use vlf_core::bake::reference;
-    use vlf_core::directions::DirectionSet;
     use vlf_core::lightfield::Iterations;
     let c = Vec3::new(0.9, 0.6, 0.3);
     let mut b = SceneBuilder::new();
@@ -263,9 +253,7 @@ fn lamp_in_diffuse_transmitting_shade() {
             max: 20,
         },
     );
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (prep, _, out) = crate::bakes::propagate(&scene, &params);
     let of = |m: u32| -> Vec<usize> {
         (0..scene.faces.len())
             .filter(|&f| scene.faces[f].material == m)
@@ -335,15 +323,7 @@ fn room_with_a_box(
     let light = b.diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
     let m = box_material(&mut b);
     b.aabox(Vec3::splat(-1.0), Vec3::splat(1.0), true, room);
-    b.quad(
-        [
-            Vec3::new(-lamp, 0.99, -lamp),
-            Vec3::new(lamp, 0.99, -lamp),
-            Vec3::new(lamp, 0.99, lamp),
-            Vec3::new(-lamp, 0.99, lamp),
-        ],
-        light,
-    );
+    crate::scenes::down_square(&mut b, 0.99, lamp, light);
     b.aabox(
         Vec3::new(-0.3, -0.9, -0.3),
         Vec3::new(0.3, -0.3, 0.3),
@@ -360,8 +340,6 @@ fn room_with_a_box(
 /// none), and the cube sends on more than its surface alone reflects (F_dr,ext E).
 #[test]
 fn marble_cube_in_room_balances_energy() {
-    use vlf_core::bake::reference;
-    use vlf_core::directions::DirectionSet;
     use vlf_core::lightfield::Iterations;
     let bake = |translucent: bool| {
         let (scene, _) = room_with_a_box("marble cube", 0.2, |b| {
@@ -379,9 +357,7 @@ fn marble_cube_in_room_balances_energy() {
                 max: 40,
             },
         );
-        let prep = BakeScene::new(&scene, &params).unwrap();
-        let set = DirectionSet::at_least(params.directions).unwrap();
-        let out = reference::propagate(&prep, &set, &params);
+        let (prep, _, out) = crate::bakes::propagate(&scene, &params);
         let e = &out.energy;
         eprintln!(
             "translucent {translucent}: iterations {}, emitted {:.4}, absorbed {:.4}, escaped {:.4}, unshot {:.2e}, imbalance {:.3e}",
@@ -451,7 +427,7 @@ fn opaque_scenes_build_no_links() {
 /// fraction of the light the lit top passes through them.
 #[test]
 fn paper_box_through_the_final_gather() {
-    use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+    use vlf_core::lightfield::{BakeParams, Iterations};
     let (scene, paper) = room_with_a_box("paper box", 0.3, |b| {
         let paper = b.diffuse("paper", Vec3::splat(0.8), Vec3::ZERO);
         b.translucent(
@@ -464,15 +440,7 @@ fn paper_box_through_the_final_gather() {
         paper
     });
     let params = |gather: bool| BakeParams {
-        final_gather: gather.then_some(GatherParams {
-            texel_scale: 1.0,
-            indirect_texel_scale: 2.0,
-            light_samples: 16,
-            direct_rays: 16,
-            indirect_rays: 64,
-            sampling: Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: gather.then_some(crate::bakes::fixed_gather(1.0, 2.0, [16, 16, 64])),
         ..bakes::params(
             46,
             32,

@@ -122,15 +122,7 @@ fn thin_sheet_reflects_and_transmits() {
             color: c,
         },
     );
-    b.quad(
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        m,
-    );
+    crate::scenes::hquad(&mut b, 0.0, 1.0, true, m);
     let scene = b.build("paper");
     // From above: the sky lights both sides (the sheet is alone), so reflected + transmitted.
     let (a, se) = albedo(&scene, Vec3::ZERO, Vec3::Y, 4000, 0.5);
@@ -150,7 +142,7 @@ fn thin_sheet_reflects_and_transmits() {
 #[test]
 fn marble_block_under_sky_pipeline_against_walk() {
     use glam::Vec4;
-    use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+    use vlf_core::lightfield::{BakeParams, Iterations};
     let mut b = SceneBuilder::new();
     let m = b.diffuse("marble", Vec3::splat(0.9), Vec3::ZERO);
     b.translucent(
@@ -170,15 +162,7 @@ fn marble_block_under_sky_pipeline_against_walk() {
     let scene = b.build("marble under the sky");
     let params = BakeParams {
         sky: Vec3::ONE,
-        final_gather: Some(GatherParams {
-            texel_scale: 0.5,
-            indirect_texel_scale: 2.0,
-            light_samples: 16,
-            direct_rays: 64,
-            indirect_rays: 64,
-            sampling: Sampling::FIXED,
-            denoise: vlf_core::lightfield::Denoiser::Off,
-        }),
+        final_gather: Some(crate::bakes::fixed_gather(0.5, 2.0, [16, 64, 64])),
         ..bakes::params(
             46,
             32,

@@ -9,7 +9,7 @@ use glam::Vec3;
 use vlf_core::bake::{BakeScene, reference};
 use vlf_core::directions::DirectionSet;
 use vlf_core::gather::{Converged, final_gather};
-use vlf_core::lightfield::{BakeParams, GatherParams, Iterations, Sampling};
+use vlf_core::lightfield::{BakeParams, Iterations};
 use vlf_core::pathtrace::{PreparedScene, Rng};
 use vlf_core::scene::Scene;
 
@@ -63,15 +63,7 @@ fn a_half_cut_screen_passes_half_the_light_in_the_propagation() {
 /// texels, is under 0.5 %).
 #[test]
 fn a_half_cut_screen_passes_half_the_light_in_the_final_gather() {
-    let gp = GatherParams {
-        texel_scale: 2.0,
-        indirect_texel_scale: 4.0,
-        light_samples: 256,
-        direct_rays: 64,
-        indirect_rays: 4,
-        sampling: Sampling::FIXED,
-        denoise: vlf_core::lightfield::Denoiser::Off,
-    };
+    let gp = crate::bakes::fixed_gather(2.0, 4.0, [256, 64, 4]);
     let mut means = Vec::new();
     for screen in [false, true] {
         let scene = striped_screen(screen);
@@ -229,9 +221,7 @@ fn panes_keep_the_energy_balance() {
         iterations: Iterations::Fixed(3),
         ..params()
     };
-    let prep = BakeScene::new(&scene, &params).unwrap();
-    let set = DirectionSet::at_least(params.directions).unwrap();
-    let out = reference::propagate(&prep, &set, &params);
+    let (_, _, out) = crate::bakes::propagate(&scene, &params);
     let e = &out.energy;
     eprintln!(
         "pane energy: injected {:.4} absorbed {:.4} escaped {:.4} unshot {:.4}, imbalance {:+.3}%",
