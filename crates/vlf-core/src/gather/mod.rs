@@ -415,6 +415,14 @@ impl Grid {
 
     /// Probes along the normal that hit anything closer than this close a sample point
     /// (world units): half a texel, the gap the atlas cannot resolve.
+    /// Face, side and centre (VLF) of texel `t`.
+    pub fn locate(&self, t: usize) -> (usize, u32, Vec3) {
+        let fi = self.tex_face[t] as usize;
+        let f = &self.atlas.faces[fi];
+        let side = (t as u32 - f.texel_base) / f.texels_per_side();
+        (fi, side, Vec4::from(self.atlas.texel_center[t]).truncate())
+    }
+
     pub fn r_close(&self, scene: &Scene) -> f32 {
         self.texel_size / scene.to_vlf.scale
     }
@@ -516,6 +524,31 @@ pub fn final_gather(
     final_gather_sampled(scene, &ps, field, gp, grids, threads)
 }
 
+/// The indirect grid's estimates (`None`: no open point) as a field to read, dilated over the
+/// texels without one, with the grid's `contacts`: how `assemble` reads it at the stored texels
+/// and the extra indirect passes at their rays' hits.
+fn indirect_field<'a>(
+    ps: &'a PreparedScene<'a>,
+    coarse: &'a BakeScene,
+    indirect: &[Option<Vec3>],
+    contacts: field::Contacts<'a>,
+) -> Field<'a> {
+    let filled: Vec<bool> = indirect.iter().map(Option::is_some).collect();
+    let mut e: Vec<[f32; 4]> = indirect
+        .iter()
+        .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
+        .collect();
+    crate::bake::dilate_where(coarse, &mut e, &filled);
+    Field {
+        scene: ps.scene,
+        atlas: coarse,
+        irradiance: e,
+        tiles: None,
+        direct: None,
+        contacts,
+    }
+}
+
 /// The gathered atlas from the texel estimates: `indirect` per texel of the indirect grid,
 /// `direct` per texel of the stored atlas (`None`: no open point). The indirect grid is
 /// dilated over its texels without a value and read at each stored texel's centre bilinearly,
@@ -536,30 +569,18 @@ pub fn assemble(
         indirect: coarse,
         direct: fine,
     } = grids;
-    let coarse = coarse.atlas;
-    let filled: Vec<bool> = indirect.iter().map(Option::is_some).collect();
-    let mut e_ind: Vec<[f32; 4]> = indirect
-        .iter()
-        .map(|e| e.unwrap_or(Vec3::ZERO).extend(0.0).into())
-        .collect();
-    crate::bake::dilate_where(&coarse, &mut e_ind, &filled);
-    let coarse_field = Field {
-        scene: ps.scene,
-        atlas: &coarse,
-        irradiance: e_ind,
-        tiles: None,
-        direct: None,
-        contacts: field::Contacts::new(&ps.bvh, ps.scene, &coarse, threads),
-    };
+    let coarse_field = indirect_field(
+        ps,
+        &coarse.atlas,
+        indirect,
+        field::Contacts::new(&ps.bvh, ps.scene, &coarse.atlas, threads),
+    );
     // Direct light plus the indirect grid read at each texel: at its covered centroid where
     // the coarse quad there is clear, else at the centroid of its open part.
     let fine_pts = fine.points(ps.scene, &ps.bvh);
     let dir: Vec<Option<(Vec3, Vec3)>> = crate::par::map(direct.len(), threads, 1024, |t| {
         let direct = direct[t]?;
-        let fi = fine.tex_face[t] as usize;
-        let f = &fine.atlas.faces[fi];
-        let side = (t as u32 - f.texel_base) / f.texels_per_side();
-        let mut p = Vec4::from(fine.atlas.texel_center[t]).truncate();
+        let (fi, side, mut p) = fine.locate(t);
         if !coarse_field.clear_at(fi as u32, side, p)
             && let Some(w) = fine_pts.open_centroid(t)
         {
@@ -576,7 +597,7 @@ pub fn assemble(
     let mut stats = GatherStats {
         texels: atlas.texel_count(),
         covered_texels: atlas.texel_area.iter().filter(|a| **a > 0.0).count(),
-        indirect_texels: coarse.texel_count(),
+        indirect_texels: coarse.atlas.texel_count(),
         propagated_power: power(field.prep, field.irradiance),
         ..Default::default()
     };

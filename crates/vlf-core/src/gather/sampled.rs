@@ -80,15 +80,8 @@ pub(super) fn final_gather_sampled(
     // bounce (or all of it) at the texel.
     let fine = &grids.direct;
     let fine_pts = fine.points(scene, &ps.bvh);
-    // Face, side and centre of a stored texel.
-    let locate = |t: usize| {
-        let fi = fine.tex_face[t] as usize;
-        let f = &fine.atlas.faces[fi];
-        let side = (t as u32 - f.texel_base) / f.texels_per_side();
-        (fi, side, Vec4::from(fine.atlas.texel_center[t]).truncate())
-    };
     let dir = crate::par::map(fine.atlas.texel_count(), threads, CHUNK, |t| {
-        let (fi, side, p) = locate(t);
+        let (fi, side, p) = fine.locate(t);
         let guide = if sky_masks.is_empty() {
             None
         } else {
@@ -126,47 +119,50 @@ pub(super) fn final_gather_sampled(
     // pass alone on 1 % of the texels, and relMSE went 2.94e-4 → 3.02e-4.
     let adaptive =
         s.max_rounds > 1 && s.target_error > 0.0 && later.is_some() && field.sky != Vec3::ZERO;
+    // Per indirect texel, the error its first pass must be within and the mean it must reach
+    // (`FirstPass::enough`), read once for every pass.
+    let limits: Vec<(f32, f32)> = if adaptive {
+        (0..coarse.atlas.texel_count())
+            .map(|t| {
+                let (fi, side, p) = coarse.locate(t);
+                let face = &field.prep.faces[fi];
+                let total = luminance(chart_bilinear(face, field.irradiance, side, p));
+                let predicted = luminance(chart_bilinear(face, &g.field.irradiance, side, p));
+                (0.25 * s.target_error * total, 0.5 * predicted)
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let enough = |t: usize, first: &FirstPass| {
-        if !adaptive {
-            return false;
-        }
-        let fi = coarse.tex_face[t] as usize;
-        let f = &coarse.atlas.faces[fi];
-        let side = (t as u32 - f.texel_base) / f.texels_per_side();
-        let p = Vec4::from(coarse.atlas.texel_center[t]).truncate();
-        let face = &field.prep.faces[fi];
-        let total = luminance(chart_bilinear(face, field.irradiance, side, p));
-        let predicted = luminance(chart_bilinear(face, &g.field.irradiance, side, p));
-        first.enough(0.25 * s.target_error * total, 0.5 * predicted)
+        limits
+            .get(t)
+            .is_some_and(|&(error, expected)| first.enough(error, expected))
     };
     let mut ind = indirect_guided(&g, coarse, &coarse_pts, gp.indirect_rays, &enough, threads);
     // 5. Under a sky, more passes of the indirect grid, each reading the previous one's
     // gathered light (plus the direct light) where its rays land instead of the propagated
     // field's, whose light after the first bounce is a few per cent low in rooms lit through
-    // openings (`EXTRA_INDIRECT_PASSES`).
+    // openings (`EXTRA_INDIRECT_PASSES`). The grid's contacts are found once for all passes.
     let passes = if adaptive { EXTRA_INDIRECT_PASSES } else { 0 };
+    let mut contacts = None;
     for _ in 0..passes {
-        let filled: Vec<bool> = ind.iter().map(Option::is_some).collect();
-        let mut e_ind: Vec<[f32; 4]> = ind
-            .iter()
-            .map(|e| e.as_ref().map_or(Vec3::ZERO, |e| e.e).extend(0.0).into())
-            .collect();
-        crate::bake::dilate_where(&coarse.atlas, &mut e_ind, &filled);
+        let e: Vec<Option<Vec3>> = ind.iter().map(|e| e.as_ref().map(|e| e.e)).collect();
+        let c = contacts
+            .take()
+            .unwrap_or_else(|| super::field::Contacts::new(&ps.bvh, scene, &coarse.atlas, threads));
+        let mut read = super::indirect_field(ps, &coarse.atlas, &e, c);
+        read.tiles = field
+            .tiles
+            .map(|(index, values)| Tiles::new(index, values, field.directions));
+        read.direct = g.field.direct.clone();
         let g2 = Gatherer {
             ps,
-            field: Field {
-                scene,
-                atlas: &coarse.atlas,
-                irradiance: e_ind,
-                tiles: field
-                    .tiles
-                    .map(|(index, values)| Tiles::new(index, values, field.directions)),
-                direct: g.field.direct.clone(),
-                contacts: super::field::Contacts::new(&ps.bvh, scene, &coarse.atlas, threads),
-            },
+            field: read,
             sky: field.sky,
         };
         ind = indirect_guided(&g2, coarse, &coarse_pts, gp.indirect_rays, &enough, threads);
+        contacts = Some(g2.field.contacts);
     }
     drop(g);
     let var_ind: Vec<[f32; 4]> = ind
@@ -178,7 +174,7 @@ pub(super) fn final_gather_sampled(
         .enumerate()
         .map(|(t, d)| {
             d.as_ref().map_or(0.0, |d| {
-                let (fi, side, p) = locate(t);
+                let (fi, side, p) = fine.locate(t);
                 d.variance + chart_bilinear(&coarse.atlas.faces[fi], &var_ind, side, p).x
             })
         })
